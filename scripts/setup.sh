@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages nephos needs (only those missing) and configures + builds
+# the project in Release mode into build/. Safe and fast to re-run: apt is skipped when every
+# package is already installed, and CMake/make rebuild only what changed.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$here"
+
+packages=(
+  build-essential cmake pkg-config
+  libeccodes-dev libeccodes-tools     # GRIB1/GRIB2 reader + grib_ls/grib_copy
+  libnetcdf-dev netcdf-bin            # CF-NetCDF output + ncdump
+  libpng-dev                          # PNG previews
+  libtomlplusplus-dev                 # configuration files
+  libcli11-dev                        # command line
+  libspdlog-dev libfmt-dev            # logging, formatting
+  libgtest-dev libgmock-dev           # tests
+  libbenchmark-dev                    # benchmarks
+  python3 python3-numpy python3-xarray python3-netcdf4   # interoperability tests (xarray reads our NetCDF)
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "nephos setup: installing ${missing[*]}" >&2
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+jobs=$(nproc 2>/dev/null || echo 2)
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build build -j"$jobs"

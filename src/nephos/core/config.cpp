@@ -1,0 +1,148 @@
+#include "nephos/core/config.hpp"
+
+#include <fstream>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "nephos/core/error.hpp"
+
+namespace nephos {
+
+struct ParamDict::Shared {
+  toml::table root;
+  std::string source;
+  std::set<std::string> used;
+};
+
+ParamDict::ParamDict() : shared_(std::make_shared<Shared>()), table_(&shared_->root) {}
+
+ParamDict::ParamDict(std::shared_ptr<Shared> shared, const toml::table* table, std::string prefix)
+    : shared_(std::move(shared)), table_(table), prefix_(std::move(prefix)) {}
+
+ParamDict ParamDict::from_string(std::string_view text, const std::string& source) {
+  auto shared = std::make_shared<Shared>();
+  shared->source = source;
+  try {
+    shared->root = toml::parse(text, source);
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(std::string(e.description()), {.file = source, .line = static_cast<int>(e.source().begin.line)});
+  }
+  const toml::table* root = &shared->root;
+  return ParamDict(std::move(shared), root, "");
+}
+
+ParamDict ParamDict::from_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError("cannot open configuration file", {.file = path.string()});
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return from_string(ss.str(), path.string());
+}
+
+const std::string& ParamDict::source() const { return shared_->source; }
+
+const void* ParamDict::node(std::string_view key) const {
+  const toml::node* n = table_->get(key);
+  if (n) shared_->used.insert(prefix_ + std::string(key));
+  return n;
+}
+
+void ParamDict::type_error(std::string_view key, const char* expected) const {
+  const toml::node* n = table_->get(key);
+  throw ConfigError(std::string("expected ") + expected,
+                    {.file = shared_->source, .key = prefix_ + std::string(key),
+                     .line = n ? static_cast<int>(n->source().begin.line) : 0});
+}
+
+bool ParamDict::has(std::string_view key) const { return table_->contains(key); }
+
+double ParamDict::get(std::string_view key, double fallback) const {
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return fallback;
+  if (auto v = n->value<double>()) return *v;  // integers convert too
+  type_error(key, "a number");
+}
+
+std::int64_t ParamDict::get(std::string_view key, std::int64_t fallback) const {
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return fallback;
+  if (n->is_integer()) return *n->value<std::int64_t>();
+  type_error(key, "an integer");
+}
+
+int ParamDict::get(std::string_view key, int fallback) const {
+  return static_cast<int>(get(key, static_cast<std::int64_t>(fallback)));
+}
+
+bool ParamDict::get(std::string_view key, bool fallback) const {
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return fallback;
+  if (n->is_boolean()) return *n->value<bool>();
+  type_error(key, "true or false");
+}
+
+std::string ParamDict::get(std::string_view key, const std::string& fallback) const {
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return fallback;
+  if (n->is_string()) return *n->value<std::string>();
+  type_error(key, "a string");
+}
+
+std::vector<double> ParamDict::get(std::string_view key, const std::vector<double>& fallback) const {
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return fallback;
+  const toml::array* a = n->as_array();
+  if (!a) type_error(key, "an array of numbers");
+  std::vector<double> out;
+  for (const auto& e : *a) {
+    auto v = e.value<double>();
+    if (!v) type_error(key, "an array of numbers");
+    out.push_back(*v);
+  }
+  return out;
+}
+
+ParamDict ParamDict::table(std::string_view key) const {
+  static const toml::table empty;
+  auto n = static_cast<const toml::node*>(node(key));
+  if (!n) return ParamDict(shared_, &empty, prefix_ + std::string(key) + ".");
+  const toml::table* t = n->as_table();
+  if (!t) type_error(key, "a table");
+  return ParamDict(shared_, t, prefix_ + std::string(key) + ".");
+}
+
+std::vector<std::string> ParamDict::keys() const {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : *table_) out.emplace_back(k.str());
+  return out;
+}
+
+namespace {
+// Finds the unused key with the smallest line number below `t`.
+void find_unused(const toml::table& t, const std::string& prefix, const std::set<std::string>& used,
+                 std::string& best_key, int& best_line) {
+  for (const auto& [k, v] : t) {
+    const std::string full = prefix + std::string(k.str());
+    const int line = static_cast<int>(v.source().begin.line);
+    if (!used.count(full)) {
+      if (best_key.empty() || line < best_line) {
+        best_key = full;
+        best_line = line;
+      }
+    } else if (const toml::table* sub = v.as_table()) {
+      find_unused(*sub, full + ".", used, best_key, best_line);
+    }
+  }
+}
+}  // namespace
+
+void ParamDict::check_unused() const {
+  std::string key;
+  int line = 0;
+  find_unused(*table_, prefix_, shared_->used, key, line);
+  if (!key.empty())
+    throw ConfigError("unknown key (not a parameter here; check its spelling and table)",
+                      {.file = shared_->source, .key = key, .line = line});
+}
+
+}  // namespace nephos

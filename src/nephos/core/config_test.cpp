@@ -1,0 +1,64 @@
+#include "nephos/core/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include "nephos/core/error.hpp"
+
+namespace nephos {
+
+TEST(ParamDict, ReadsValuesAndDefaults) {
+  auto d = ParamDict::from_string("a = 1.5\nb = 2\nname = 'x'\nflag = true\nlist = [1, 2.5]\n[t]\nc = 3\n");
+  EXPECT_EQ(d.get("a", 0.0), 1.5);
+  EXPECT_EQ(d.get("b", 0.0), 2.0);  // an integer where a number is expected is fine
+  EXPECT_EQ(d.get("b", 0), 2);
+  EXPECT_EQ(d.get("name", "y"), "x");
+  EXPECT_TRUE(d.get("flag", false));
+  EXPECT_EQ(d.get("list", std::vector<double>{}), (std::vector<double>{1, 2.5}));
+  EXPECT_EQ(d.table("t").get("c", 0), 3);
+  EXPECT_EQ(d.get("missing", 9.0), 9.0);
+  EXPECT_NO_THROW(d.check_unused());
+}
+
+TEST(ParamDict, UnknownKeyIsReportedWithItsLine) {
+  auto d = ParamDict::from_string("a = 1\n[t]\nc = 3\ntypo_key = 4\n", "cfg.toml");
+  d.get("a", 0);
+  d.table("t").get("c", 0);
+  try {
+    d.check_unused();
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.context().key, "t.typo_key");
+    EXPECT_EQ(e.context().line, 4);
+    EXPECT_EQ(e.context().file, "cfg.toml");
+    EXPECT_NE(std::string(e.what()).find("cfg.toml:4"), std::string::npos);
+  }
+}
+
+TEST(ParamDict, UnreadTableIsReported) {
+  auto d = ParamDict::from_string("[unknown_table]\nx = 1\n");
+  EXPECT_THROW(d.check_unused(), ConfigError);
+}
+
+TEST(ParamDict, WrongTypeNamesKeyAndExpectation) {
+  auto d = ParamDict::from_string("a = 'text'\n", "c.toml");
+  try {
+    d.get("a", 0.0);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.context().key, "a");
+    EXPECT_NE(std::string(e.what()).find("expected a number"), std::string::npos);
+  }
+}
+
+TEST(ParamDict, SyntaxErrorHasLine) {
+  try {
+    ParamDict::from_string("a = 1\nb = = 2\n", "bad.toml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.context().line, 2);
+  }
+}
+
+TEST(ParamDict, MissingFileIsIoError) { EXPECT_THROW(ParamDict::from_file("/nonexistent/x.toml"), IoError); }
+
+}  // namespace nephos

@@ -1,0 +1,54 @@
+#pragma once
+// A thin, typed-error wrapper over netCDF-C for writing CF-compliant NetCDF-4 files.
+// The file is written under a temporary name and renamed by close(); a writer destroyed
+// without close() (an exception) leaves nothing behind.
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace nephos {
+class AtomicFile;
+}
+
+namespace nephos::io {
+
+enum class NcType { f32, f64, i32, i8 };
+
+class NetcdfWriter {
+ public:
+  static constexpr int global = -1;  ///< NC_GLOBAL: attributes of the file itself
+
+  explicit NetcdfWriter(const std::filesystem::path& path);
+  ~NetcdfWriter();
+  NetcdfWriter(const NetcdfWriter&) = delete;
+  NetcdfWriter& operator=(const NetcdfWriter&) = delete;
+
+  int add_dimension(const std::string& name, std::size_t length);
+  /// A variable over the named dimensions (slowest first); floats are deflate-compressed.
+  int add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims);
+  void put_attribute(int var, const std::string& name, const std::string& value);
+  void put_attribute(int var, const std::string& name, double value);
+  void put_attribute(int var, const std::string& name, const std::vector<double>& values);
+  void put_attribute_f32(int var, const std::string& name, const std::vector<float>& values);
+  void put_attribute_i8(int var, const std::string& name, const std::vector<std::int8_t>& values);
+  /// Leaves define mode; then write data.
+  void end_definitions();
+  void write(int var, const float* data);
+  void write(int var, const double* data);
+  void write(int var, const std::int32_t* data);
+  void write(int var, const std::int8_t* data);
+  /// Closes and renames into place.
+  void close();
+
+ private:
+  void check(int status, const std::string& what) const;
+  int dim_id(const std::string& name) const;
+  std::filesystem::path path_;
+  std::unique_ptr<AtomicFile> file_;
+  int ncid_ = -1;
+  std::vector<std::pair<std::string, int>> dims_;
+};
+
+}  // namespace nephos::io

@@ -1,0 +1,308 @@
+// GRIB edition 1 and 2 through ecCodes. Only regular latitude-longitude grids are accepted
+// (any scanning mode, any longitude convention): each value is placed by the per-point
+// coordinates ecCodes computes, so the scanning flags can never be misread. Other grid types
+// are refused with their name.
+#include <eccodes.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fmt/format.h>
+#include <map>
+#include <memory>
+#include <set>
+#include <spdlog/spdlog.h>
+
+#include "nephos/core/error.hpp"
+#include "nephos/earth/earth.hpp"
+#include "nephos/weather/reader.hpp"
+
+namespace nephos::weather {
+namespace {
+
+struct FileCloser {
+  void operator()(FILE* f) const { std::fclose(f); }
+};
+struct HandleDeleter {
+  void operator()(codes_handle* h) const { codes_handle_delete(h); }
+};
+using Handle = std::unique_ptr<codes_handle, HandleDeleter>;
+
+std::unique_ptr<FILE, FileCloser> open_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
+  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory, expected a GRIB file", {.file = path.string()});
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw IoError("cannot open for reading", {.file = path.string()});
+  return std::unique_ptr<FILE, FileCloser>(f);
+}
+
+std::string get_string(codes_handle* h, const char* key) {
+  char buf[256];
+  size_t len = sizeof buf;
+  if (codes_get_string(h, key, buf, &len) != 0) return {};
+  return std::string(buf);
+}
+long get_long(codes_handle* h, const char* key, long fallback = 0) {
+  long v = fallback;
+  return codes_get_long(h, key, &v) == 0 ? v : fallback;
+}
+
+// One message's values on a normalised regular lat-lon grid (see weather_grid.hpp).
+struct Decoded {
+  LatLonGrid grid;
+  std::vector<float> values;  // nlat*nlon, j south->north, i east from lon0
+};
+
+Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::string& field) {
+  const std::string grid_type = get_string(h, "gridType");
+  if (grid_type != "regular_ll")
+    throw FormatError(fmt::format("grid type '{}' is not supported (only regular_ll, a regular latitude-longitude "
+                                  "grid); regrid it first, e.g. with cdo remapbil or wgrib2 -new_grid",
+                                  grid_type),
+                      {.file = file, .field = field});
+  size_t n = 0;
+  if (codes_get_size(h, "values", &n) != 0 || n == 0) throw FormatError("message has no values", {.file = file, .field = field});
+  const long ni = get_long(h, "Ni"), nj = get_long(h, "Nj");
+  if (ni < 2 || nj < 2 || static_cast<size_t>(ni * nj) != n)
+    throw FormatError(fmt::format("Ni x Nj = {} x {} does not match {} values", ni, nj, n), {.file = file, .field = field});
+  std::vector<double> lats(n), lons(n), vals(n);
+  if (const int err = codes_grib_get_data(h, lats.data(), lons.data(), vals.data()); err != 0)
+    throw FormatError(std::string("cannot decode values: ") + codes_get_error_message(err), {.file = file, .field = field});
+
+  double missing = 9999;
+  codes_get_double(h, "missingValue", &missing);
+  const bool has_bitmap = get_long(h, "bitmapPresent") != 0;
+
+  // Latitude rows.
+  const auto [lat_min_it, lat_max_it] = std::minmax_element(lats.begin(), lats.end());
+  const double lat_min = *lat_min_it, lat_max = *lat_max_it;
+  const double dlat = (lat_max - lat_min) / static_cast<double>(nj - 1);
+  // Longitude columns: normalise to [0, 360), then start after the largest gap (so a regional
+  // grid crossing 0 or 180 stays contiguous; a global grid starts at its smallest longitude).
+  std::set<double> ulon;
+  for (double l : lons) ulon.insert(std::round(earth::wrap_lon_360(l) * 1e6) / 1e6);
+  std::vector<double> sl(ulon.begin(), ulon.end());
+  if (static_cast<long>(sl.size()) != ni)
+    throw FormatError(fmt::format("expected {} distinct longitudes, found {}", ni, sl.size()), {.file = file, .field = field});
+  // Spacing: the smallest step between neighbouring columns (the cyclic step included), so a
+  // regional grid's gap across its edges is never taken for the spacing.
+  double dlon = 360.0 - (sl.back() - sl.front());
+  for (size_t i = 1; i < sl.size(); ++i) dlon = std::min(dlon, sl[i] - sl[i - 1]);
+  double lon0 = sl.front();
+  if (std::abs(static_cast<double>(ni) * dlon - 360.0) > 1e-3) {  // regional: start after the largest gap
+    double best_gap = 360.0 - (sl.back() - sl.front());
+    for (size_t i = 1; i < sl.size(); ++i)
+      if (sl[i] - sl[i - 1] > best_gap) {
+        best_gap = sl[i] - sl[i - 1];
+        lon0 = sl[i];
+      }
+  }
+  Decoded d;
+  d.grid = {static_cast<int>(nj), static_cast<int>(ni), lat_min, dlat, lon0, std::abs(dlon)};
+  const double recompute_dlon = d.grid.dlon_deg;
+  d.values.assign(n, std::numeric_limits<float>::quiet_NaN());
+  std::vector<char> filled(n, 0);
+  for (size_t p = 0; p < n; ++p) {
+    const double fj = (lats[p] - lat_min) / dlat;
+    const double fi = earth::wrap_lon_360(lons[p] - lon0) / recompute_dlon;
+    const long j = std::lround(fj), i = std::lround(fi) % ni;
+    if (std::abs(fj - static_cast<double>(j)) > 1e-3 || std::abs(fi - std::round(fi)) > 1e-3 || j < 0 || j >= nj)
+      throw FormatError(fmt::format("point {} at ({}, {}) is not on a regular lat-lon lattice", p, lats[p], lons[p]),
+                        {.file = file, .field = field});
+    const size_t q = static_cast<size_t>(j * ni + i);
+    if (filled[q]) throw FormatError("two values at the same grid point", {.file = file, .field = field});
+    filled[q] = 1;
+    const bool is_missing = has_bitmap && vals[p] == missing;
+    d.values[q] = is_missing ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(vals[p]);
+  }
+  return d;
+}
+
+// Physical conversion from the GRIB unit to the WeatherGrid unit.
+float scale_for(const std::string& short_name) {
+  if (short_name == "r" || short_name == "tcc") return 0.01f;  // percent -> fraction
+  return 1.0f;
+}
+
+std::optional<Field> field_for(const std::string& short_name) {
+  for (const auto& fi : all_fields())
+    if (short_name == fi.grib_short_name) return fi.field;
+  return std::nullopt;
+}
+
+std::optional<CloudLayer> cloud_layer_for(const std::string& level_type) {
+  for (int l = 0; l < cloud_layer_count; ++l)
+    if (level_type == grib_level_type(static_cast<CloudLayer>(l))) return static_cast<CloudLayer>(l);
+  if (level_type == "entireAtmosphere") return CloudLayer::total;
+  return std::nullopt;
+}
+
+UtcTime time_from(long yyyymmdd, long hhmm) {
+  return UtcTime::from_civil(static_cast<int>(yyyymmdd / 10000), static_cast<int>(yyyymmdd / 100 % 100),
+                             static_cast<int>(yyyymmdd % 100), static_cast<int>(hhmm / 100), static_cast<int>(hhmm % 100));
+}
+
+template <class Fn>
+void for_each_message(const std::filesystem::path& path, Fn&& fn) {
+  auto file = open_file(path);
+  int count = 0;
+  for (;;) {
+    int err = 0;
+    Handle h(codes_handle_new_from_file(nullptr, file.get(), PRODUCT_GRIB, &err));
+    if (err != 0)
+      throw FormatError(fmt::format("GRIB message {} is corrupt: {}", count + 1, codes_get_error_message(err)),
+                        {.file = path.string()});
+    if (!h) break;
+    ++count;
+    fn(h.get(), count);
+  }
+  if (count == 0) throw FormatError("not a GRIB file (no GRIB messages found)", {.file = path.string()});
+}
+
+struct PendingLevel {
+  Field field;
+  double pressure_pa;
+  std::vector<float> values;
+};
+
+class GribReader final : public WeatherReader {
+ public:
+  std::string name() const override { return "grib"; }
+
+  bool can_read(const std::filesystem::path& path) const override {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return false;
+    char buf[4096];
+    const size_t n = std::fread(buf, 1, sizeof buf, f);
+    std::fclose(f);
+    // A GRIB message starts "GRIB" and carries its edition (1 or 2) in octet 8.
+    const std::string_view v(buf, n);
+    for (size_t pos = v.find("GRIB"); pos != std::string_view::npos; pos = v.find("GRIB", pos + 1))
+      if (pos + 7 < n && (buf[pos + 7] == 1 || buf[pos + 7] == 2)) return true;
+    return false;
+  }
+
+  WeatherGrid read(const std::filesystem::path& path) const override {
+    const std::string file = path.string();
+    std::optional<LatLonGrid> grid;
+    std::vector<PendingLevel> pending;
+    std::map<CloudLayer, std::vector<float>> cloud;
+    std::vector<float> orography;
+    WeatherMetadata meta;
+    meta.source = file;
+    bool have_time = false;
+    std::set<std::pair<int, long long>> seen;  // (field, pressure in mPa) duplicates
+    std::set<std::string> held;  // what the file has besides pressure-level fields
+
+    auto check_grid = [&](const LatLonGrid& g, const std::string& field) {
+      if (!grid) {
+        grid = g;
+      } else if (!(std::abs(grid->lat0_deg - g.lat0_deg) < 1e-6 && std::abs(grid->dlat_deg - g.dlat_deg) < 1e-6 &&
+                   std::abs(grid->lon0_deg - g.lon0_deg) < 1e-6 && std::abs(grid->dlon_deg - g.dlon_deg) < 1e-6 &&
+                   grid->nlat == g.nlat && grid->nlon == g.nlon)) {
+        throw FormatError(fmt::format("grid {} differs from the first field's grid {}; all fields must share one grid",
+                                      g.describe(), grid->describe()),
+                          {.file = file, .field = field});
+      }
+    };
+
+    for_each_message(path, [&](codes_handle* h, int) {
+      const std::string sn = get_string(h, "shortName");
+      const std::string lt = get_string(h, "typeOfLevel");
+      const long level = get_long(h, "level");
+      if (!have_time) {
+        meta.reference_time = time_from(get_long(h, "dataDate"), get_long(h, "dataTime"));
+        meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
+        meta.producer = get_string(h, "centre");
+      }
+      const auto field = field_for(sn);
+      const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
+      if (!on_pressure_level) held.insert(sn + "/" + lt);
+      if (on_pressure_level) {
+        const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
+        const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
+        if (!seen.insert({static_cast<int>(*field), std::llround(p * 1000)}).second) {
+          spdlog::warn("{}: duplicate message for {}; keeping the first", file, name);
+          return;
+        }
+        Decoded d = decode_regular_ll(h, file, name);
+        check_grid(d.grid, name);
+        const float s = scale_for(sn);
+        if (s != 1.0f)
+          for (float& v : d.values) v *= s;
+        pending.push_back({*field, p, std::move(d.values)});
+        if (!have_time) {
+          meta.valid_time = time_from(get_long(h, "validityDate"), get_long(h, "validityTime"));
+          have_time = true;
+        }
+      } else if (sn == "tcc") {
+        if (auto layer = cloud_layer_for(lt)) {
+          Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt));
+          check_grid(d.grid, "tcc");
+          for (float& v : d.values) v *= 0.01f;
+          cloud[*layer] = std::move(d.values);
+        }
+      } else if (sn == "orog" && lt == "surface") {
+        Decoded d = decode_regular_ll(h, file, "orog");
+        check_grid(d.grid, "orog");
+        orography = std::move(d.values);
+      }
+    });
+
+    if (pending.empty()) {
+      std::string list = fmt::format("{}", fmt::join(held, ", "));
+      if (list.size() > 200) list = list.substr(0, 200) + "...";
+      throw FormatError(fmt::format("no pressure-level fields (gh, t, r, w, u, v on isobaric levels); it holds only {}", list),
+                        {.file = file});
+    }
+    // Levels: every pressure at which geopotential height is known (the vertical coordinate).
+    std::set<double, std::greater<>> gh_levels, other_levels;
+    for (const auto& p : pending) (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
+    if (gh_levels.empty())
+      throw FormatError("no geopotential height (gh) on isobaric levels: cannot place levels in altitude",
+                        {.file = file, .field = "gh"});
+    for (double p : other_levels)
+      if (!gh_levels.count(p)) spdlog::warn("{}: level {:g} hPa has no gh; its fields are ignored", file, p / 100);
+
+    WeatherGrid w(*grid, std::vector<double>(gh_levels.begin(), gh_levels.end()));
+    const auto& levels = w.pressure_levels_pa();
+    for (auto& p : pending) {
+      const auto it = std::find(levels.begin(), levels.end(), p.pressure_pa);
+      if (it == levels.end()) continue;
+      std::copy(p.values.begin(), p.values.end(), w.level_data(p.field, static_cast<int>(it - levels.begin())));
+    }
+    for (auto& [layer, v] : cloud) w.cloud_cover_mut(layer) = std::move(v);
+    w.orography_m_mut() = std::move(orography);
+    meta.forecast_step_h = static_cast<double>(meta.valid_time.unix_s - meta.reference_time.unix_s) / 3600.0;
+    w.metadata() = meta;
+    spdlog::debug("{}: read {} level fields on {}", file, pending.size(), grid->describe());
+    return w;
+  }
+};
+
+}  // namespace
+
+GribInventory inventory_grib(const std::filesystem::path& path) {
+  GribInventory inv;
+  std::map<std::string, int> skipped;
+  std::set<std::string> grids;
+  for_each_message(path, [&](codes_handle* h, int) {
+    ++inv.messages;
+    inv.editions_mask |= 1 << get_long(h, "editionNumber");
+    grids.insert(get_string(h, "gridType"));
+    const std::string sn = get_string(h, "shortName"), lt = get_string(h, "typeOfLevel");
+    const bool used = (field_for(sn) && (lt == "isobaricInhPa" || lt == "isobaricInPa")) ||
+                      (sn == "tcc" && cloud_layer_for(lt)) || (sn == "orog" && lt == "surface");
+    if (!used) ++skipped[sn + "/" + lt];
+  });
+  inv.grid_types.assign(grids.begin(), grids.end());
+  for (const auto& [k, n] : skipped) inv.skipped_summary.push_back(fmt::format("{} x{}", k, n));
+  return inv;
+}
+
+ReaderFactory grib_reader_factory() {
+  return [] { return std::make_unique<GribReader>(); };
+}
+
+}  // namespace nephos::weather

@@ -1,0 +1,192 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "nephos/core/error.hpp"
+#include "nephos/weather/reader.hpp"
+#include "test_grib_writer.hpp"
+
+namespace nephos::weather {
+namespace {
+
+using testing::GribGridSpec;
+
+// A smooth field periodic in longitude, so any longitude convention must give the same value.
+double analytic(double lat, double lon) {
+  return 1000.0 + 3.0 * lat + 20.0 * std::sin(lon * M_PI / 180.0) + 5.0 * std::cos(2 * lon * M_PI / 180.0);
+}
+// 24-bit packing of a field spanning ~400 units quantises to ~400/2^24 = 2.4e-5; 1e-3 is ample.
+constexpr double packing_tol = 1e-3;
+
+class GribReaderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("nephos_grib_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path file(const std::string& n) const { return dir_ / n; }
+
+  // Writes gh/t/r at three levels, r missing at 850 hPa.
+  std::filesystem::path write_file(const GribGridSpec& spec, const std::string& fname) {
+    const auto p = file(fname);
+    for (long lev : {1000L, 850L, 500L}) {
+      append_grib(p, spec, "gh", "isobaricInhPa", lev, [lev](double la, double lo) { return analytic(la, lo) + static_cast<double>(1000 - lev) * 10; });
+      append_grib(p, spec, "t", "isobaricInhPa", lev, [lev](double la, double lo) { return 250 + 0.1 * analytic(la, lo) - static_cast<double>(1000 - lev) * 0.05; });
+      if (lev != 850) append_grib(p, spec, "r", "isobaricInhPa", lev, [](double la, double) { return 50 + la / 2; });
+    }
+    return p;
+  }
+
+  void expect_grid_matches_analytic(const WeatherGrid& w) {
+    const auto& g = w.grid();
+    for (int k = 0; k < w.level_count(); ++k) {
+      const double lev = w.pressure_levels_pa()[static_cast<std::size_t>(k)] / 100.0;
+      for (int j = 0; j < g.nlat; ++j)
+        for (int i = 0; i < g.nlon; ++i)
+          ASSERT_NEAR(w.value(Field::geopotential_height, k, j, i), analytic(g.lat(j), g.lon(i)) + (1000 - lev) * 10, packing_tol)
+              << "k=" << k << " lat=" << g.lat(j) << " lon=" << g.lon(i);
+    }
+  }
+  std::filesystem::path dir_;
+};
+
+TEST_F(GribReaderTest, Grib2NorthToSouthZeroTo360) {
+  GribGridSpec s;  // rows 60, 30, 0, -30, -60; lon 0..315
+  const WeatherGrid w = open_weather(write_file(s, "a.grib2"));
+  EXPECT_EQ(w.grid().nlat, 5);
+  EXPECT_EQ(w.grid().nlon, 8);
+  EXPECT_DOUBLE_EQ(w.grid().lat0_deg, -60);
+  EXPECT_DOUBLE_EQ(w.grid().lon0_deg, 0);
+  EXPECT_TRUE(w.grid().wraps());
+  ASSERT_EQ(w.level_count(), 3);
+  EXPECT_EQ(w.pressure_levels_pa()[0], 100000.0);  // bottom first
+  expect_grid_matches_analytic(w);
+  // A known point: lat 30, lon 90 -> row j = 3, column i = 2.
+  EXPECT_NEAR(w.value(Field::geopotential_height, 0, 3, 2), 1000 + 90 + 20 - 5, packing_tol);
+}
+
+TEST_F(GribReaderTest, Grib2SouthToNorthMinus180To180) {
+  GribGridSpec s;
+  s.j_scans_positively = true;
+  s.lat_first = -60;
+  s.lon_first = -180;
+  const WeatherGrid w = open_weather(write_file(s, "b.grib2"));
+  EXPECT_DOUBLE_EQ(w.grid().lon0_deg, 0);  // normalised to 0..360
+  EXPECT_TRUE(w.grid().wraps());
+  expect_grid_matches_analytic(w);
+}
+
+TEST_F(GribReaderTest, Grib2EastToWest) {
+  GribGridSpec s;
+  s.i_scans_negatively = true;
+  s.lon_first = 315;
+  const WeatherGrid w = open_weather(write_file(s, "c.grib2"));
+  expect_grid_matches_analytic(w);
+}
+
+TEST_F(GribReaderTest, Grib1BothConventionsAndScans) {
+  GribGridSpec s;
+  s.edition = 1;
+  const WeatherGrid a = open_weather(write_file(s, "d.grib1"));
+  EXPECT_EQ(a.metadata().grib_edition, 1);
+  expect_grid_matches_analytic(a);
+  s.j_scans_positively = true;
+  s.lat_first = -60;
+  s.lon_first = -180;
+  const WeatherGrid b = open_weather(write_file(s, "e.grib1"));
+  expect_grid_matches_analytic(b);
+}
+
+TEST_F(GribReaderTest, RegionalGridAcrossGreenwich) {
+  GribGridSpec s;
+  s.ni = 5;
+  s.dlon = 10;
+  s.lon_first = -20;  // -20..20
+  const WeatherGrid w = open_weather(write_file(s, "f.grib2"));
+  EXPECT_FALSE(w.grid().wraps());
+  EXPECT_DOUBLE_EQ(w.grid().lon0_deg, 340);
+  expect_grid_matches_analytic(w);
+}
+
+TEST_F(GribReaderTest, MetadataTimes) {
+  const WeatherGrid w = open_weather(write_file(GribGridSpec{}, "g.grib2"));
+  EXPECT_EQ(w.metadata().reference_time.iso(), "2011-01-10T12:00:00Z");
+  EXPECT_EQ(w.metadata().forecast_step_h, 120.0);
+  EXPECT_EQ(w.metadata().valid_time.iso(), "2011-01-15T12:00:00Z");
+}
+
+TEST_F(GribReaderTest, MissingLevelIsExplicit) {
+  const WeatherGrid w = open_weather(write_file(GribGridSpec{}, "h.grib2"));
+  EXPECT_TRUE(w.has(Field::relative_humidity, 0));
+  EXPECT_FALSE(w.has(Field::relative_humidity, 1));  // 850 hPa was not written
+  EXPECT_EQ(w.levels_of(Field::relative_humidity), (std::vector<int>{0, 2}));
+  EXPECT_TRUE(std::isnan(w.value(Field::relative_humidity, 1, 0, 0)));
+  // Percent converted to a fraction: 50 + lat/2 at lat -60 = 20 % -> 0.2.
+  EXPECT_NEAR(w.value(Field::relative_humidity, 0, 0, 0), 0.20, 1e-5);
+  EXPECT_FALSE(w.has(Field::omega));
+  EXPECT_EQ(missing_for_masks(w), (std::vector<std::string>{"w"}));
+}
+
+TEST_F(GribReaderTest, RefusesOtherGridTypesByName) {
+  const auto p = file("ps.grib2");
+  testing::append_grib_from_sample(p, "polar_stereographic_pl_grib2", "t");
+  try {
+    open_weather(p);
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("polar_stereographic"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ps.grib2"), std::string::npos);
+  }
+  const auto q = file("gg.grib2");
+  testing::append_grib_from_sample(q, "reduced_gg_pl_32_grib2", "t");
+  EXPECT_THROW(open_weather(q), FormatError);
+}
+
+TEST_F(GribReaderTest, NotGrib) {
+  const auto p = file("text.grib2");
+  std::ofstream(p) << "this is not a GRIB file\n";
+  try {
+    open_weather(p);
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a GRIB file"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(GribReaderTest, SurfaceOnlyFileHasNoPressureLevels) {
+  const auto p = file("sfc.grib2");
+  testing::append_grib(p, GribGridSpec{}, "2t", "surface", 0, [](double, double) { return 280.0; });
+  try {
+    open_weather(p);
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("no pressure-level fields"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(GribReaderTest, MissingFile) { EXPECT_THROW(open_weather(file("absent.grib2")), IoError); }
+
+TEST(RealGfsSample, HoldsWhatTheMasksNeed) {
+  const WeatherGrid w = open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  EXPECT_EQ(w.grid().nlon, 144);
+  EXPECT_EQ(w.grid().nlat, 73);
+  EXPECT_EQ(w.level_count(), 26);
+  EXPECT_TRUE(missing_for_masks(w).empty());
+  EXPECT_EQ(w.levels_of(Field::relative_humidity).size(), 25u);  // GFS omits r at 20 hPa
+  EXPECT_EQ(w.levels_of(Field::omega).size(), 21u);              // and w above 100 hPa
+  EXPECT_TRUE(w.has_cloud_cover(CloudLayer::low) && w.has_cloud_cover(CloudLayer::middle) && w.has_cloud_cover(CloudLayer::high));
+  EXPECT_EQ(w.metadata().valid_time.iso(), "2011-01-15T12:00:00Z");
+  // Hand checks read with ecCodes' own tool (grib_get -l LAT,LON,1), which prints 2 decimals:
+  // gh at 500 hPa at the North Pole = 4966.13 gpm; t at 850 hPa at 40N 255E = 273.9 K.
+  const int k500 = 12, k850 = 5;
+  ASSERT_EQ(w.pressure_levels_pa()[k500], 50000.0);
+  ASSERT_EQ(w.pressure_levels_pa()[k850], 85000.0);
+  EXPECT_NEAR(w.value(Field::geopotential_height, k500, 72, 0), 4966.13, 0.01);  // print rounding
+  EXPECT_NEAR(w.value(Field::temperature, k850, 52, 102), 273.9, 0.05);          // print rounding
+}
+
+}  // namespace
+}  // namespace nephos::weather

@@ -1,0 +1,48 @@
+#include "nephos/weather/reader.hpp"
+
+#include <map>
+
+#include "nephos/core/error.hpp"
+
+namespace nephos::weather {
+
+ReaderFactory grib_reader_factory();  // grib_reader.cpp
+
+namespace {
+// Built-in readers are in the map from its construction (thread-safe static initialisation).
+std::map<std::string, ReaderFactory>& registry() {
+  static std::map<std::string, ReaderFactory> r{{"grib", grib_reader_factory()}};
+  return r;
+}
+}  // namespace
+
+void register_reader(const std::string& name, ReaderFactory factory) { registry()[name] = std::move(factory); }
+
+std::vector<std::string> reader_names() {
+  std::vector<std::string> out;
+  for (const auto& [k, v] : registry()) out.push_back(k);
+  return out;
+}
+
+std::unique_ptr<WeatherReader> make_reader(const std::string& name) {
+  auto& r = registry();
+  auto it = r.find(name);
+  if (it == r.end()) {
+    std::string known;
+    for (const auto& n : reader_names()) known += (known.empty() ? "" : ", ") + n;
+    throw ValueError("unknown weather reader '" + name + "' (known: " + known + ")");
+  }
+  return it->second();
+}
+
+WeatherGrid open_weather(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
+  for (const auto& n : reader_names()) {
+    auto reader = make_reader(n);
+    if (reader->can_read(path)) return reader->read(path);
+  }
+  throw FormatError("not a GRIB file (no GRIB messages found) and no other reader recognises it", {.file = path.string()});
+}
+
+}  // namespace nephos::weather

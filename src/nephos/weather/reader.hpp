@@ -1,0 +1,44 @@
+#pragma once
+// Weather readers: an open set (GRIB today; others later), so a virtual base with a name-keyed
+// registry. open_weather() picks the reader that recognises a file by its content.
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nephos/weather/weather_grid.hpp"
+
+namespace nephos::weather {
+
+class WeatherReader {
+ public:
+  virtual ~WeatherReader() = default;
+  virtual std::string name() const = 0;
+  /// Cheap content sniffing (magic bytes), never throws.
+  virtual bool can_read(const std::filesystem::path& path) const = 0;
+  /// Reads the file. Throws IoError (cannot read) or FormatError (content not usable).
+  virtual WeatherGrid read(const std::filesystem::path& path) const = 0;
+};
+
+using ReaderFactory = std::function<std::unique_ptr<WeatherReader>()>;
+/// Registers a reader under `name` (built-in readers are registered on first use).
+void register_reader(const std::string& name, ReaderFactory factory);
+/// The reader registered as `name`; ValueError listing the known names otherwise.
+std::unique_ptr<WeatherReader> make_reader(const std::string& name);
+std::vector<std::string> reader_names();
+
+/// Reads a weather file with whichever registered reader recognises it.
+/// Throws IoError if the file is missing/unreadable, FormatError if no reader recognises it.
+WeatherGrid open_weather(const std::filesystem::path& path);
+
+/// What a GRIB file holds beyond what WeatherGrid keeps (for `nephos info`).
+struct GribInventory {
+  int messages = 0;
+  int editions_mask = 0;  ///< bit 1: GRIB1, bit 2: GRIB2
+  std::vector<std::string> grid_types;       ///< distinct gridType values
+  std::vector<std::string> skipped_summary;  ///< "shortName/typeOfLevel xN" not used by nephos
+};
+GribInventory inventory_grib(const std::filesystem::path& path);
+
+}  // namespace nephos::weather

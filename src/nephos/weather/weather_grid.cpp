@@ -1,0 +1,113 @@
+#include "nephos/weather/weather_grid.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+#include <limits>
+
+#include "nephos/core/error.hpp"
+#include "nephos/earth/earth.hpp"
+
+namespace nephos::weather {
+
+const std::array<FieldInfo, field_count>& all_fields() {
+  static const std::array<FieldInfo, field_count> table{{
+      {Field::geopotential_height, "gh", "gpm", "geopotential height", true},
+      {Field::temperature, "t", "K", "air temperature", true},
+      {Field::relative_humidity, "r", "1", "relative humidity", true},
+      {Field::omega, "w", "Pa s-1", "vertical velocity (omega, positive = sinking)", true},
+      {Field::u_wind, "u", "m s-1", "eastward wind", true},
+      {Field::v_wind, "v", "m s-1", "northward wind", true},
+      {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate mixing ratio", false},
+  }};
+  return table;
+}
+
+const FieldInfo& info(Field f) { return all_fields()[static_cast<std::size_t>(f)]; }
+
+const char* name(CloudLayer layer) {
+  static const char* names[] = {"low", "middle", "high", "convective", "boundary_layer", "total"};
+  return names[static_cast<int>(layer)];
+}
+
+const char* grib_level_type(CloudLayer layer) {
+  static const char* names[] = {"lowCloudLayer",        "middleCloudLayer",        "highCloudLayer",
+                                "convectiveCloudLayer", "boundaryLayerCloudLayer", "atmosphereSingleLayer"};
+  return names[static_cast<int>(layer)];
+}
+
+double LatLonGrid::cell_area_fraction(int j) const {
+  const double a = std::clamp(lat(j) - 0.5 * dlat_deg, -90.0, 90.0);
+  const double b = std::clamp(lat(j) + 0.5 * dlat_deg, -90.0, 90.0);
+  return earth::area_fraction_between(a, b) * (dlon_deg / 360.0);
+}
+
+std::string LatLonGrid::describe() const {
+  return fmt::format("regular_ll {} x {} (lon x lat), {:g} x {:g} deg, lat {:g}..{:g}, lon {:g}..{:g}{}", nlon, nlat,
+                     dlon_deg, dlat_deg, lat(0), lat(nlat - 1), lon(0), lon(nlon - 1), wraps() ? " (global)" : "");
+}
+
+WeatherGrid::WeatherGrid(LatLonGrid grid, std::vector<double> pressure_levels_pa)
+    : grid_(grid), pressure_pa_(std::move(pressure_levels_pa)) {
+  if (grid_.nlat < 2 || grid_.nlon < 2) throw ValueError("a weather grid needs at least 2 x 2 points");
+  if (!std::is_sorted(pressure_pa_.begin(), pressure_pa_.end(), std::greater<>()))
+    throw ValueError("pressure levels must be sorted by decreasing pressure");
+  const std::size_t n = grid_.size() * pressure_pa_.size();
+  for (auto& d : data_) d.assign(n, std::numeric_limits<float>::quiet_NaN());
+  for (auto& p : present_) p.assign(pressure_pa_.size(), false);
+}
+
+bool WeatherGrid::has(Field f) const {
+  const auto& p = present_[idx(f)];
+  return std::find(p.begin(), p.end(), true) != p.end();
+}
+
+std::vector<int> WeatherGrid::levels_of(Field f) const {
+  std::vector<int> out;
+  for (int k = 0; k < level_count(); ++k)
+    if (has(f, k)) out.push_back(k);
+  return out;
+}
+
+float* WeatherGrid::level_data(Field f, int k) {
+  present_[idx(f)][static_cast<std::size_t>(k)] = true;
+  return data_[idx(f)].data() + index(k, 0, 0);
+}
+
+float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg) {
+  const double fy = std::clamp((lat_deg - g.lat0_deg) / g.dlat_deg, 0.0, static_cast<double>(g.nlat - 1));
+  const int j0 = std::min(static_cast<int>(fy), g.nlat - 2);
+  const double wy = fy - j0;
+  double fx = earth::wrap_lon_360(lon_deg - g.lon0_deg) / g.dlon_deg;
+  int i0, i1;
+  if (g.wraps()) {
+    i0 = static_cast<int>(fx) % g.nlon;
+    i1 = (i0 + 1) % g.nlon;
+    fx -= std::floor(fx);
+  } else {
+    if (fx > g.nlon - 1 + 1e-9) return std::numeric_limits<float>::quiet_NaN();
+    i0 = std::min(static_cast<int>(fx), g.nlon - 2);
+    i1 = i0 + 1;
+    fx -= i0;
+  }
+  auto at = [&](int j, int i) { return static_cast<double>(field[static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i)]); };
+  const double v = (1 - wy) * ((1 - fx) * at(j0, i0) + fx * at(j0, i1)) + wy * ((1 - fx) * at(j0 + 1, i0) + fx * at(j0 + 1, i1));
+  return static_cast<float>(v);
+}
+
+namespace {
+std::vector<std::string> missing(const WeatherGrid& w, std::initializer_list<Field> fields) {
+  std::vector<std::string> out;
+  for (Field f : fields)
+    if (!w.has(f)) out.emplace_back(info(f).grib_short_name);
+  return out;
+}
+}  // namespace
+
+std::vector<std::string> missing_for_masks(const WeatherGrid& w) {
+  return missing(w, {Field::geopotential_height, Field::temperature, Field::relative_humidity, Field::omega});
+}
+std::vector<std::string> missing_for_winds(const WeatherGrid& w) {
+  return missing(w, {Field::geopotential_height, Field::u_wind, Field::v_wind});
+}
+
+}  // namespace nephos::weather
