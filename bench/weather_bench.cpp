@@ -9,7 +9,8 @@
 using namespace nephos::weather;
 
 namespace {
-const std::filesystem::path sample = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
+const std::filesystem::path sample =
+    std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
 
 void BM_ReadGrib(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(open_weather(sample));

@@ -1,12 +1,12 @@
 // nephos command-line program. Only this file (and the Python layer) catches exceptions:
 // nephos::Error -> one-line message naming file/field/key, exit code 2.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
-#include <fmt/format.h>
 #include <iostream>
-#include <spdlog/spdlog.h>
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
@@ -88,10 +88,11 @@ int run_masks(const MasksOptions& o, const GlobalOptions& g) {
   const auto agreement = weather::compare_with_gfs_cloud_cover(masks, w);
   if (!agreement.empty()) {
     std::cout << "\nagreement with GFS cloud cover (area-weighted):\n";
-    std::cout << fmt::format("{:<7} {:<30} {:>10} {:>10} {:>12}\n", "layer", "mask", "mask cover", "GFS cover", "correlation");
+    std::cout << fmt::format("{:<7} {:<30} {:>10} {:>10} {:>12}\n", "layer", "mask", "mask cover", "GFS cover",
+                             "correlation");
     for (const auto& a : agreement)
-      std::cout << fmt::format("{:<7} {:<30} {:>10.3f} {:>10.3f} {:>12.3f}\n", weather::name(a.layer), a.mask, a.mask_cover,
-                               a.gfs_cover, a.correlation);
+      std::cout << fmt::format("{:<7} {:<30} {:>10.3f} {:>10.3f} {:>12.3f}\n", weather::name(a.layer), a.mask,
+                               a.mask_cover, a.gfs_cover, a.correlation);
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({} threads)", out.string(), secs, thread_count());
@@ -120,7 +121,9 @@ int main(int argc, char** argv) {
   masks->add_flag("--synthetic", mo.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
   masks->add_option("--out", mo.out, "Output directory")->capture_default_str();
   masks->add_option("--config", mo.config, "TOML file with [cloud_fraction] and [masks.*] parameters");
-  masks->add_option("--png-width", mo.png_width, "Width of the PNG previews [pixels]")->capture_default_str()->check(CLI::Range(16, 16384));
+  masks->add_option("--png-width", mo.png_width, "Width of the PNG previews [pixels]")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 16384));
 
   try {
     app.parse(argc, argv);

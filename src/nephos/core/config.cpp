@@ -1,8 +1,8 @@
 #include "nephos/core/config.hpp"
 
+#include <toml++/toml.h>
 #include <fstream>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "nephos/core/error.hpp"
 
@@ -49,9 +49,9 @@ const void* ParamDict::node(std::string_view key) const {
 
 void ParamDict::type_error(std::string_view key, const char* expected) const {
   const toml::node* n = table_->get(key);
-  throw ConfigError(std::string("expected ") + expected,
-                    {.file = shared_->source, .key = prefix_ + std::string(key),
-                     .line = n ? static_cast<int>(n->source().begin.line) : 0});
+  throw ConfigError(std::string("expected ") + expected, {.file = shared_->source,
+                                                          .key = prefix_ + std::string(key),
+                                                          .line = n ? static_cast<int>(n->source().begin.line) : 0});
 }
 
 bool ParamDict::has(std::string_view key) const { return table_->contains(key); }

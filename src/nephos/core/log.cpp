@@ -16,9 +16,15 @@ void init_logging(Verbosity v) {
     spdlog::set_default_logger(logger);
   }
   switch (v) {
-    case Verbosity::quiet: spdlog::set_level(spdlog::level::warn); break;
-    case Verbosity::normal: spdlog::set_level(spdlog::level::info); break;
-    case Verbosity::verbose: spdlog::set_level(spdlog::level::debug); break;
+    case Verbosity::quiet:
+      spdlog::set_level(spdlog::level::warn);
+      break;
+    case Verbosity::normal:
+      spdlog::set_level(spdlog::level::info);
+      break;
+    case Verbosity::verbose:
+      spdlog::set_level(spdlog::level::debug);
+      break;
   }
 }
 

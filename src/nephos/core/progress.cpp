@@ -33,7 +33,8 @@ double Progress::elapsed_s() const {
 void Progress::advance(std::size_t n) {
   const std::size_t done = done_.fetch_add(n, std::memory_order_relaxed) + n;
   if (!active_) return;
-  const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
+  const auto now_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
   long long next = next_draw_ns_.load(std::memory_order_relaxed);
   if (now_ns < next) return;
   if (!next_draw_ns_.compare_exchange_strong(next, now_ns + 100'000'000)) return;  // 10 Hz

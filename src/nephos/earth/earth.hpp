@@ -6,8 +6,8 @@
 
 namespace nephos::earth {
 
-inline constexpr double radius_m = 6371008.8;     ///< IUGG mean radius R1 [m]
-inline constexpr double g0_m_s2 = 9.80665;        ///< standard gravity [m s^-2] (WMO geopotential metre)
+inline constexpr double radius_m = 6371008.8;  ///< IUGG mean radius R1 [m]
+inline constexpr double g0_m_s2 = 9.80665;     ///< standard gravity [m s^-2] (WMO geopotential metre)
 inline constexpr double deg = std::numbers::pi / 180.0;
 
 /// Geometric height [m] from geopotential height [gpm]: z = R H / (R - H).

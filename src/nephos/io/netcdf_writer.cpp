@@ -7,8 +7,7 @@
 
 namespace nephos::io {
 
-NetcdfWriter::NetcdfWriter(const std::filesystem::path& path)
-    : path_(path), file_(std::make_unique<AtomicFile>(path)) {
+NetcdfWriter::NetcdfWriter(const std::filesystem::path& path) : path_(path), file_(std::make_unique<AtomicFile>(path)) {
   check(nc_create(file_->temp_path().c_str(), NC_NETCDF4 | NC_CLOBBER, &ncid_), "cannot create");
 }
 
@@ -36,9 +35,13 @@ int NetcdfWriter::add_dimension(const std::string& name, std::size_t length) {
 int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims) {
   std::vector<int> ids;
   for (const auto& d : dims) ids.push_back(dim_id(d));
-  const nc_type t = type == NcType::f32 ? NC_FLOAT : type == NcType::f64 ? NC_DOUBLE : type == NcType::i32 ? NC_INT : NC_BYTE;
+  const nc_type t = type == NcType::f32   ? NC_FLOAT
+                    : type == NcType::f64 ? NC_DOUBLE
+                    : type == NcType::i32 ? NC_INT
+                                          : NC_BYTE;
   int var = 0;
-  check(nc_def_var(ncid_, name.c_str(), t, static_cast<int>(ids.size()), ids.data(), &var), "cannot define variable " + name);
+  check(nc_def_var(ncid_, name.c_str(), t, static_cast<int>(ids.size()), ids.data(), &var),
+        "cannot define variable " + name);
   if (!dims.empty() && (type == NcType::f32 || type == NcType::f64))
     check(nc_def_var_deflate(ncid_, var, 1, 1, 4), "cannot enable compression for " + name);
   return var;
@@ -53,8 +56,9 @@ void NetcdfWriter::put_attribute(int var, const std::string& name, double value)
         "cannot write attribute " + name);
 }
 void NetcdfWriter::put_attribute(int var, const std::string& name, const std::vector<double>& values) {
-  check(nc_put_att_double(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_DOUBLE, values.size(), values.data()),
-        "cannot write attribute " + name);
+  check(
+      nc_put_att_double(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_DOUBLE, values.size(), values.data()),
+      "cannot write attribute " + name);
 }
 void NetcdfWriter::put_attribute_f32(int var, const std::string& name, const std::vector<float>& values) {
   check(nc_put_att_float(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_FLOAT, values.size(), values.data()),
@@ -68,8 +72,12 @@ void NetcdfWriter::put_attribute_i8(int var, const std::string& name, const std:
 
 void NetcdfWriter::end_definitions() { check(nc_enddef(ncid_), "cannot leave define mode"); }
 void NetcdfWriter::write(int var, const float* data) { check(nc_put_var_float(ncid_, var, data), "cannot write data"); }
-void NetcdfWriter::write(int var, const double* data) { check(nc_put_var_double(ncid_, var, data), "cannot write data"); }
-void NetcdfWriter::write(int var, const std::int32_t* data) { check(nc_put_var_int(ncid_, var, data), "cannot write data"); }
+void NetcdfWriter::write(int var, const double* data) {
+  check(nc_put_var_double(ncid_, var, data), "cannot write data");
+}
+void NetcdfWriter::write(int var, const std::int32_t* data) {
+  check(nc_put_var_int(ncid_, var, data), "cannot write data");
+}
 void NetcdfWriter::write(int var, const std::int8_t* data) {
   check(nc_put_var_schar(ncid_, var, reinterpret_cast<const signed char*>(data)), "cannot write data");
 }

@@ -20,9 +20,11 @@ struct FileCloser {
 }
 }  // namespace
 
-void write_png(const std::filesystem::path& path, int width, int height, int channels, const std::vector<std::uint8_t>& pixels) {
+void write_png(const std::filesystem::path& path, int width, int height, int channels,
+               const std::vector<std::uint8_t>& pixels) {
   if (width <= 0 || height <= 0 || (channels != 1 && channels != 3 && channels != 4) ||
-      pixels.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(channels))
+      pixels.size() !=
+          static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(channels))
     throw ValueError("invalid PNG image dimensions or buffer size", {.file = path.string()});
   AtomicFile out(path);
   {
@@ -38,8 +40,8 @@ void write_png(const std::filesystem::path& path, int width, int height, int cha
     }
     png_init_io(png, f.get());
     const int type = channels == 1 ? PNG_COLOR_TYPE_GRAY : channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_RGBA;
-    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, type, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, type,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
     for (int y = 0; y < height; ++y)
       png_write_row(png, pixels.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width * channels));

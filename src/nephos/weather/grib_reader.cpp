@@ -4,14 +4,14 @@
 // are refused with their name.
 #include <eccodes.h>
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fmt/format.h>
 #include <map>
 #include <memory>
 #include <set>
-#include <spdlog/spdlog.h>
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
@@ -31,7 +31,8 @@ using Handle = std::unique_ptr<codes_handle, HandleDeleter>;
 std::unique_ptr<FILE, FileCloser> open_file(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
-  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory, expected a GRIB file", {.file = path.string()});
+  if (std::filesystem::is_directory(path, ec))
+    throw IoError("is a directory, expected a GRIB file", {.file = path.string()});
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw IoError("cannot open for reading", {.file = path.string()});
   return std::unique_ptr<FILE, FileCloser>(f);
@@ -62,13 +63,16 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
                                   grid_type),
                       {.file = file, .field = field});
   size_t n = 0;
-  if (codes_get_size(h, "values", &n) != 0 || n == 0) throw FormatError("message has no values", {.file = file, .field = field});
+  if (codes_get_size(h, "values", &n) != 0 || n == 0)
+    throw FormatError("message has no values", {.file = file, .field = field});
   const long ni = get_long(h, "Ni"), nj = get_long(h, "Nj");
   if (ni < 2 || nj < 2 || static_cast<size_t>(ni * nj) != n)
-    throw FormatError(fmt::format("Ni x Nj = {} x {} does not match {} values", ni, nj, n), {.file = file, .field = field});
+    throw FormatError(fmt::format("Ni x Nj = {} x {} does not match {} values", ni, nj, n),
+                      {.file = file, .field = field});
   std::vector<double> lats(n), lons(n), vals(n);
   if (const int err = codes_grib_get_data(h, lats.data(), lons.data(), vals.data()); err != 0)
-    throw FormatError(std::string("cannot decode values: ") + codes_get_error_message(err), {.file = file, .field = field});
+    throw FormatError(std::string("cannot decode values: ") + codes_get_error_message(err),
+                      {.file = file, .field = field});
 
   double missing = 9999;
   codes_get_double(h, "missingValue", &missing);
@@ -84,7 +88,8 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
   for (double l : lons) ulon.insert(std::round(earth::wrap_lon_360(l) * 1e6) / 1e6);
   std::vector<double> sl(ulon.begin(), ulon.end());
   if (static_cast<long>(sl.size()) != ni)
-    throw FormatError(fmt::format("expected {} distinct longitudes, found {}", ni, sl.size()), {.file = file, .field = field});
+    throw FormatError(fmt::format("expected {} distinct longitudes, found {}", ni, sl.size()),
+                      {.file = file, .field = field});
   // Spacing: the smallest step between neighbouring columns (the cyclic step included), so a
   // regional grid's gap across its edges is never taken for the spacing.
   double dlon = 360.0 - (sl.back() - sl.front());
@@ -140,7 +145,8 @@ std::optional<CloudLayer> cloud_layer_for(const std::string& level_type) {
 
 UtcTime time_from(long yyyymmdd, long hhmm) {
   return UtcTime::from_civil(static_cast<int>(yyyymmdd / 10000), static_cast<int>(yyyymmdd / 100 % 100),
-                             static_cast<int>(yyyymmdd % 100), static_cast<int>(hhmm / 100), static_cast<int>(hhmm % 100));
+                             static_cast<int>(yyyymmdd % 100), static_cast<int>(hhmm / 100),
+                             static_cast<int>(hhmm % 100));
 }
 
 template <class Fn>
@@ -193,7 +199,7 @@ class GribReader final : public WeatherReader {
     meta.source = file;
     bool have_time = false;
     std::set<std::pair<int, long long>> seen;  // (field, pressure in mPa) duplicates
-    std::set<std::string> held;  // what the file has besides pressure-level fields
+    std::set<std::string> held;                // what the file has besides pressure-level fields
 
     auto check_grid = [&](const LatLonGrid& g, const std::string& field) {
       if (!grid) {
@@ -253,12 +259,14 @@ class GribReader final : public WeatherReader {
     if (pending.empty()) {
       std::string list = fmt::format("{}", fmt::join(held, ", "));
       if (list.size() > 200) list = list.substr(0, 200) + "...";
-      throw FormatError(fmt::format("no pressure-level fields (gh, t, r, w, u, v on isobaric levels); it holds only {}", list),
-                        {.file = file});
+      throw FormatError(
+          fmt::format("no pressure-level fields (gh, t, r, w, u, v on isobaric levels); it holds only {}", list),
+          {.file = file});
     }
     // Levels: every pressure at which geopotential height is known (the vertical coordinate).
     std::set<double, std::greater<>> gh_levels, other_levels;
-    for (const auto& p : pending) (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
+    for (const auto& p : pending)
+      (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
     if (gh_levels.empty())
       throw FormatError("no geopotential height (gh) on isobaric levels: cannot place levels in altitude",
                         {.file = file, .field = "gh"});

@@ -22,7 +22,8 @@ constexpr double packing_tol = 1e-3;
 class GribReaderTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / ("nephos_grib_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ = std::filesystem::temp_directory_path() /
+           ("nephos_grib_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
   }
@@ -33,8 +34,11 @@ class GribReaderTest : public ::testing::Test {
   std::filesystem::path write_file(const GribGridSpec& spec, const std::string& fname) {
     const auto p = file(fname);
     for (long lev : {1000L, 850L, 500L}) {
-      append_grib(p, spec, "gh", "isobaricInhPa", lev, [lev](double la, double lo) { return analytic(la, lo) + static_cast<double>(1000 - lev) * 10; });
-      append_grib(p, spec, "t", "isobaricInhPa", lev, [lev](double la, double lo) { return 250 + 0.1 * analytic(la, lo) - static_cast<double>(1000 - lev) * 0.05; });
+      append_grib(p, spec, "gh", "isobaricInhPa", lev,
+                  [lev](double la, double lo) { return analytic(la, lo) + static_cast<double>(1000 - lev) * 10; });
+      append_grib(p, spec, "t", "isobaricInhPa", lev, [lev](double la, double lo) {
+        return 250 + 0.1 * analytic(la, lo) - static_cast<double>(1000 - lev) * 0.05;
+      });
       if (lev != 850) append_grib(p, spec, "r", "isobaricInhPa", lev, [](double la, double) { return 50 + la / 2; });
     }
     return p;
@@ -46,7 +50,8 @@ class GribReaderTest : public ::testing::Test {
       const double lev = w.pressure_levels_pa()[static_cast<std::size_t>(k)] / 100.0;
       for (int j = 0; j < g.nlat; ++j)
         for (int i = 0; i < g.nlon; ++i)
-          ASSERT_NEAR(w.value(Field::geopotential_height, k, j, i), analytic(g.lat(j), g.lon(i)) + (1000 - lev) * 10, packing_tol)
+          ASSERT_NEAR(w.value(Field::geopotential_height, k, j, i), analytic(g.lat(j), g.lon(i)) + (1000 - lev) * 10,
+                      packing_tol)
               << "k=" << k << " lat=" << g.lat(j) << " lon=" << g.lon(i);
     }
   }
@@ -170,14 +175,16 @@ TEST_F(GribReaderTest, SurfaceOnlyFileHasNoPressureLevels) {
 TEST_F(GribReaderTest, MissingFile) { EXPECT_THROW(open_weather(file("absent.grib2")), IoError); }
 
 TEST(RealGfsSample, HoldsWhatTheMasksNeed) {
-  const WeatherGrid w = open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  const WeatherGrid w =
+      open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
   EXPECT_EQ(w.grid().nlon, 144);
   EXPECT_EQ(w.grid().nlat, 73);
   EXPECT_EQ(w.level_count(), 26);
   EXPECT_TRUE(missing_for_masks(w).empty());
   EXPECT_EQ(w.levels_of(Field::relative_humidity).size(), 25u);  // GFS omits r at 20 hPa
   EXPECT_EQ(w.levels_of(Field::omega).size(), 21u);              // and w above 100 hPa
-  EXPECT_TRUE(w.has_cloud_cover(CloudLayer::low) && w.has_cloud_cover(CloudLayer::middle) && w.has_cloud_cover(CloudLayer::high));
+  EXPECT_TRUE(w.has_cloud_cover(CloudLayer::low) && w.has_cloud_cover(CloudLayer::middle) &&
+              w.has_cloud_cover(CloudLayer::high));
   EXPECT_EQ(w.metadata().valid_time.iso(), "2011-01-15T12:00:00Z");
   // Hand checks read with ecCodes' own tool (grib_get -l LAT,LON,1), which prints 2 decimals:
   // gh at 500 hPa at the North Pole = 4966.13 gpm; t at 850 hPa at 40N 255E = 273.9 K.

@@ -43,7 +43,8 @@ std::string describe_weather_file(const std::filesystem::path& path) {
                      w.pressure_levels_pa().front() / 100.0, w.pressure_levels_pa().back() / 100.0);
   out += "fields on isobaric levels:\n";
   for (const auto& fi : all_fields())
-    out += fmt::format("  {:<6} {:<46} [{}] {}\n", fi.grib_short_name, fi.long_name, fi.units, levels_text(w, fi.field));
+    out +=
+        fmt::format("  {:<6} {:<46} [{}] {}\n", fi.grib_short_name, fi.long_name, fi.units, levels_text(w, fi.field));
   out += "cloud cover (tcc) layers:";
   bool any = false;
   for (int l = 0; l < cloud_layer_count; ++l)

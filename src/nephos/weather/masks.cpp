@@ -1,8 +1,8 @@
 #include "nephos/weather/masks.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/progress.hpp"
@@ -55,16 +55,24 @@ MaskParams MaskParams::from(const ParamDict& dict) {
     tp.updraft_max_pa_s = d.get("updraft_max_pa_s", tp.updraft_max_pa_s);
     tp.temperature_min_c = d.get("temperature_min_c", tp.temperature_min_c);
     tp.temperature_max_c = d.get("temperature_max_c", tp.temperature_max_c);
-    const std::string ref = d.get("temperature_at", tp.temperature_at == TemperatureReference::sample ? "sample" : "cloud_top");
-    if (ref == "sample") tp.temperature_at = TemperatureReference::sample;
-    else if (ref == "cloud_top") tp.temperature_at = TemperatureReference::cloud_top;
-    else throw ConfigError("expected \"sample\" or \"cloud_top\", got \"" + ref + "\"",
-                           {.file = dict.source(), .key = std::string("masks.") + name(static_cast<CloudType>(t)) + ".temperature_at"});
+    const std::string ref =
+        d.get("temperature_at", tp.temperature_at == TemperatureReference::sample ? "sample" : "cloud_top");
+    if (ref == "sample")
+      tp.temperature_at = TemperatureReference::sample;
+    else if (ref == "cloud_top")
+      tp.temperature_at = TemperatureReference::cloud_top;
+    else
+      throw ConfigError(
+          "expected \"sample\" or \"cloud_top\", got \"" + ref + "\"",
+          {.file = dict.source(), .key = std::string("masks.") + name(static_cast<CloudType>(t)) + ".temperature_at"});
     if (!(tp.band_top_m > tp.band_bottom_m))
-      throw ConfigError("band_top_m must exceed band_bottom_m", {.file = dict.source(), .key = std::string("masks.") + name(static_cast<CloudType>(t))});
+      throw ConfigError("band_top_m must exceed band_bottom_m",
+                        {.file = dict.source(), .key = std::string("masks.") + name(static_cast<CloudType>(t))});
   }
-  if (!(p.vertical_step_m > 0)) throw ConfigError("must be > 0", {.file = dict.source(), .key = "masks.vertical_step_m"});
-  if (p.updraft_ramp_pa_s < 0 || p.temperature_ramp_k < 0) throw ConfigError("ramp widths must be >= 0", {.file = dict.source(), .key = "masks"});
+  if (!(p.vertical_step_m > 0))
+    throw ConfigError("must be > 0", {.file = dict.source(), .key = "masks.vertical_step_m"});
+  if (p.updraft_ramp_pa_s < 0 || p.temperature_ramp_k < 0)
+    throw ConfigError("ramp widths must be >= 0", {.file = dict.source(), .key = "masks"});
   return p;
 }
 
@@ -145,7 +153,8 @@ WeatherMasks compute_masks(const WeatherGrid& weather, const MaskParams& params)
     std::vector<double> z(static_cast<std::size_t>(n_samples)), c(z.size()), tc(z.size()), up(z.size());
     for (int i = 0; i < g.nlon; ++i) {
       const Column col = sampler.column_at_node(j, i);
-      const std::size_t cell = static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i);
+      const std::size_t cell =
+          static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i);
       if (!col.valid()) continue;
       const double ground = weather.has_orography() ? weather.orography_m()[cell] : -1e30;
       for (int s = 0; s < n_samples; ++s) {

@@ -27,34 +27,34 @@ namespace nephos::weather {
 
 enum class CloudType : int { low_stratus, low_cumulus, altostratus, cirrus };
 inline constexpr int cloud_type_count = 4;
-const char* name(CloudType t);            ///< "low_stratus", ...
-const char* long_name(CloudType t);       ///< "low stratus cloud fraction"
+const char* name(CloudType t);                            ///< "low_stratus", ...
+const char* long_name(CloudType t);                       ///< "low stratus cloud fraction"
 CloudType cloud_type_from_name(const std::string& name);  ///< ValueError if unknown
 
 enum class TemperatureReference { sample, cloud_top };
 
 struct CloudFractionParams {
-  double rh_exponent = 0.25;                    ///< p
-  double condensate_coefficient = 2000.0;       ///< a [dimensionless]
-  double min_condensate_kg_kg = 1e-6;           ///< q_min at 1000 hPa, scaled by p/1000 hPa
-  double rh_critical = 0.8;                     ///< RH-ramp fallback when the file has no clwmr
+  double rh_exponent = 0.25;               ///< p
+  double condensate_coefficient = 2000.0;  ///< a [dimensionless]
+  double min_condensate_kg_kg = 1e-6;      ///< q_min at 1000 hPa, scaled by p/1000 hPa
+  double rh_critical = 0.8;                ///< RH-ramp fallback when the file has no clwmr
 };
 
 struct CloudTypeMaskParams {
-  double band_bottom_m = 0, band_top_m = 0;     ///< altitude band the mask gathers cloud from [m MSL]
-  double updraft_min_pa_s = -std::numeric_limits<double>::infinity();  ///< -omega lower bound [Pa/s]
-  double updraft_max_pa_s = std::numeric_limits<double>::infinity();   ///< -omega upper bound [Pa/s]
-  double temperature_min_c = -std::numeric_limits<double>::infinity(); ///< [degC]
-  double temperature_max_c = std::numeric_limits<double>::infinity();  ///< [degC]
+  double band_bottom_m = 0, band_top_m = 0;  ///< altitude band the mask gathers cloud from [m MSL]
+  double updraft_min_pa_s = -std::numeric_limits<double>::infinity();   ///< -omega lower bound [Pa/s]
+  double updraft_max_pa_s = std::numeric_limits<double>::infinity();    ///< -omega upper bound [Pa/s]
+  double temperature_min_c = -std::numeric_limits<double>::infinity();  ///< [degC]
+  double temperature_max_c = std::numeric_limits<double>::infinity();   ///< [degC]
   TemperatureReference temperature_at = TemperatureReference::sample;
 };
 
 struct MaskParams {
   CloudFractionParams cloud_fraction;
-  double vertical_step_m = 250.0;          ///< altitude sampling step inside each band [m]
-  double updraft_ramp_pa_s = 0.02;         ///< width of the vertical-wind condition edges [Pa/s]
-  double temperature_ramp_k = 2.0;         ///< width of the temperature condition edges [K]
-  double cloud_top_min_fraction = 0.01;    ///< a sample counts as cloud top above this fraction
+  double vertical_step_m = 250.0;        ///< altitude sampling step inside each band [m]
+  double updraft_ramp_pa_s = 0.02;       ///< width of the vertical-wind condition edges [Pa/s]
+  double temperature_ramp_k = 2.0;       ///< width of the temperature condition edges [K]
+  double cloud_top_min_fraction = 0.01;  ///< a sample counts as cloud top above this fraction
   std::array<CloudTypeMaskParams, cloud_type_count> types;
 
   /// Defaults (docs/weather.md): Table 1's conditions, bands tuned on 2011-01-10 GFS.
@@ -86,10 +86,10 @@ WeatherMasks compute_masks(const WeatherGrid& weather, const MaskParams& params)
 /// Agreement of the masks with GFS's own cloud cover (tcc) for one layer.
 struct LayerAgreement {
   CloudLayer layer;
-  std::string mask;             ///< which mask(s) were compared
-  double mask_cover = 0;        ///< area-weighted mean of the mask
-  double gfs_cover = 0;         ///< area-weighted mean of tcc
-  double correlation = 0;       ///< area-weighted Pearson correlation
+  std::string mask;        ///< which mask(s) were compared
+  double mask_cover = 0;   ///< area-weighted mean of the mask
+  double gfs_cover = 0;    ///< area-weighted mean of tcc
+  double correlation = 0;  ///< area-weighted Pearson correlation
 };
 /// low: max(low_stratus, low_cumulus); middle: altostratus; high: cirrus. Layers without tcc are skipped.
 std::vector<LayerAgreement> compare_with_gfs_cloud_cover(const WeatherMasks& masks, const WeatherGrid& weather);

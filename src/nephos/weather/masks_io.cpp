@@ -1,8 +1,8 @@
 #include "nephos/weather/masks_io.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "nephos/io/netcdf_writer.hpp"
 #include "nephos/io/png.hpp"
@@ -44,10 +44,11 @@ void write_masks_netcdf(const std::filesystem::path& path, const WeatherMasks& m
     nc.put_attribute(v, "units", "1");
     nc.put_attribute(v, "coordinates", "time");
     nc.put_attribute_f32(v, "valid_range", {0.0f, 1.0f});
-    nc.put_attribute(v, "comment",
-                     fmt::format("nephos weather mask: cloud fraction of this type gathered over {:g}-{:g} m above mean "
-                                 "sea level with maximum-random overlap (docs/weather.md)",
-                                 tp.band_bottom_m, tp.band_top_m));
+    nc.put_attribute(
+        v, "comment",
+        fmt::format("nephos weather mask: cloud fraction of this type gathered over {:g}-{:g} m above mean "
+                    "sea level with maximum-random overlap (docs/weather.md)",
+                    tp.band_bottom_m, tp.band_top_m));
     vars.push_back(v);
   }
   std::vector<std::pair<int, CloudLayer>> tcc_vars;
@@ -55,7 +56,8 @@ void write_masks_netcdf(const std::filesystem::path& path, const WeatherMasks& m
     if (!weather.has_cloud_cover(l)) continue;
     const int v = nc.add_variable(fmt::format("gfs_tcc_{}", name(l)), io::NcType::f32, {"latitude", "longitude"});
     nc.put_attribute(v, "standard_name", "cloud_area_fraction_in_atmosphere_layer");
-    nc.put_attribute(v, "long_name", fmt::format("GFS total cloud cover of the {} cloud layer (from the input file)", name(l)));
+    nc.put_attribute(v, "long_name",
+                     fmt::format("GFS total cloud cover of the {} cloud layer (from the input file)", name(l)));
     nc.put_attribute(v, "units", "1");
     nc.put_attribute(v, "coordinates", "time");
     tcc_vars.emplace_back(v, l);
@@ -79,12 +81,14 @@ void write_masks_netcdf(const std::filesystem::path& path, const WeatherMasks& m
   const double tv = static_cast<double>(m.valid_time.unix_s), rv = static_cast<double>(m.reference_time.unix_s);
   nc.write(time, &tv);
   nc.write(ref, &rv);
-  for (int t = 0; t < cloud_type_count; ++t) nc.write(vars[static_cast<std::size_t>(t)], masks.value[static_cast<std::size_t>(t)].data());
+  for (int t = 0; t < cloud_type_count; ++t)
+    nc.write(vars[static_cast<std::size_t>(t)], masks.value[static_cast<std::size_t>(t)].data());
   for (const auto& [v, l] : tcc_vars) nc.write(v, weather.cloud_cover(l).data());
   nc.close();
 }
 
-void write_mask_png(const std::filesystem::path& path, const LatLonGrid& grid, const std::vector<float>& mask, int width) {
+void write_mask_png(const std::filesystem::path& path, const LatLonGrid& grid, const std::vector<float>& mask,
+                    int width) {
   const int height = width / 2;
   std::vector<std::uint8_t> px(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
   for (int y = 0; y < height; ++y) {

@@ -14,6 +14,7 @@ void write_masks_netcdf(const std::filesystem::path& path, const WeatherMasks& m
 
 /// An equirectangular greyscale PNG (black 0 .. white 1), longitude -180..180 left to right,
 /// north up, `width` x width/2 pixels (bilinear from the grid), with a 30-degree graticule.
-void write_mask_png(const std::filesystem::path& path, const LatLonGrid& grid, const std::vector<float>& mask, int width = 1440);
+void write_mask_png(const std::filesystem::path& path, const LatLonGrid& grid, const std::vector<float>& mask,
+                    int width = 1440);
 
 }  // namespace nephos::weather

@@ -106,7 +106,8 @@ TEST(Masks, TemperatureDecidesAltostratusOrCirrus) {
 }
 
 TEST(Masks, ParametersFromTomlRejectUnknownKeys) {
-  const auto d = ParamDict::from_string("[masks.cirrus]\nband_bottom_m = 7000\n[masks.low_stratus]\nbogus = 1\n", "m.toml");
+  const auto d =
+      ParamDict::from_string("[masks.cirrus]\nband_bottom_m = 7000\n[masks.low_stratus]\nbogus = 1\n", "m.toml");
   const MaskParams p = MaskParams::from(d);
   EXPECT_EQ(p[CloudType::cirrus].band_bottom_m, 7000);
   EXPECT_THROW(d.check_unused(), ConfigError);
@@ -129,7 +130,8 @@ TEST(Masks, MissingFieldsAreNamed) {
 
 WeatherGrid real(const char* name) { return open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data" / name); }
 std::size_t cell(const LatLonGrid& g, double lat, double lon) {
-  return static_cast<std::size_t>(std::lround((lat - g.lat0_deg) / g.dlat_deg) * g.nlon + std::lround(lon / g.dlon_deg));
+  return static_cast<std::size_t>(std::lround((lat - g.lat0_deg) / g.dlat_deg) * g.nlon +
+                                  std::lround(lon / g.dlon_deg));
 }
 
 TEST(MasksOnGfs, HandCheckedCells) {
@@ -148,7 +150,8 @@ TEST(MasksOnGfs, HandCheckedCells) {
   EXPECT_LT(std::max(m[CloudType::low_stratus][ci], m[CloudType::low_cumulus][ci]), 0.05f);
   // 22.5N 45E, central Arabia: GFS clear in every layer.
   const auto clear = cell(g, 22.5, 45);
-  for (int t = 0; t < cloud_type_count; ++t) EXPECT_LT(m.value[static_cast<std::size_t>(t)][clear], 0.05f) << name(static_cast<CloudType>(t));
+  for (int t = 0; t < cloud_type_count; ++t)
+    EXPECT_LT(m.value[static_cast<std::size_t>(t)][clear], 0.05f) << name(static_cast<CloudType>(t));
 }
 
 void expect_agreement(const char* file) {
@@ -164,7 +167,9 @@ void expect_agreement(const char* file) {
 }
 
 TEST(MasksOnGfs, AgreeWithGfsCloudCoverOnTheTuningDate) { expect_agreement("gfs_20110110_12z_f120_2p5deg.grib2"); }
-TEST(MasksOnGfs, AgreeWithGfsCloudCoverOnAnUntunedDate) { expect_agreement("validation/gfs_20111008_00z_f072_2p5deg.grib2"); }
+TEST(MasksOnGfs, AgreeWithGfsCloudCoverOnAnUntunedDate) {
+  expect_agreement("validation/gfs_20111008_00z_f072_2p5deg.grib2");
+}
 
 TEST(MasksOnGfs, BitIdenticalForOneAndTwoThreads) {
   const WeatherGrid w = real("gfs_20110110_12z_f120_2p5deg.grib2");
@@ -175,7 +180,8 @@ TEST(MasksOnGfs, BitIdenticalForOneAndTwoThreads) {
   set_threads(0);
   for (int t = 0; t < cloud_type_count; ++t)
     EXPECT_EQ(std::memcmp(a.value[static_cast<std::size_t>(t)].data(), b.value[static_cast<std::size_t>(t)].data(),
-                          a.value[0].size() * sizeof(float)), 0);
+                          a.value[0].size() * sizeof(float)),
+              0);
 }
 
 }  // namespace

@@ -42,7 +42,8 @@ WeatherGrid open_weather(const std::filesystem::path& path) {
     auto reader = make_reader(n);
     if (reader->can_read(path)) return reader->read(path);
   }
-  throw FormatError("not a GRIB file (no GRIB messages found) and no other reader recognises it", {.file = path.string()});
+  throw FormatError("not a GRIB file (no GRIB messages found) and no other reader recognises it",
+                    {.file = path.string()});
 }
 
 }  // namespace nephos::weather

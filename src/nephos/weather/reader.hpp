@@ -35,7 +35,7 @@ WeatherGrid open_weather(const std::filesystem::path& path);
 /// What a GRIB file holds beyond what WeatherGrid keeps (for `nephos info`).
 struct GribInventory {
   int messages = 0;
-  int editions_mask = 0;  ///< bit 1: GRIB1, bit 2: GRIB2
+  int editions_mask = 0;                     ///< bit 1: GRIB1, bit 2: GRIB2
   std::vector<std::string> grid_types;       ///< distinct gridType values
   std::vector<std::string> skipped_summary;  ///< "shortName/typeOfLevel xN" not used by nephos
 };

@@ -36,7 +36,8 @@ WeatherSampler::Stencil WeatherSampler::stencil(double lat_deg, double lon_deg) 
   return s;
 }
 
-Column WeatherSampler::make_column(const std::array<std::size_t, 4>& cells, const std::array<double, 4>& weights) const {
+Column WeatherSampler::make_column(const std::array<std::size_t, 4>& cells,
+                                   const std::array<double, 4>& weights) const {
   Column c;
   const int nk = w_->level_count();
   const auto& p = w_->pressure_levels_pa();
@@ -86,7 +87,8 @@ Column WeatherSampler::column(double lat_deg, double lon_deg) const {
 }
 
 Column WeatherSampler::column_at_node(int j, int i) const {
-  const std::size_t cell = static_cast<std::size_t>(j) * static_cast<std::size_t>(w_->grid().nlon) + static_cast<std::size_t>(i);
+  const std::size_t cell =
+      static_cast<std::size_t>(j) * static_cast<std::size_t>(w_->grid().nlon) + static_cast<std::size_t>(i);
   return make_column({cell, cell, cell, cell}, {1, 0, 0, 0});
 }
 
@@ -95,7 +97,9 @@ double WeatherSampler::surface_height_m(double lat_deg, double lon_deg) const {
   const Stencil s = stencil(lat_deg, lon_deg);
   const auto& o = w_->orography_m();
   const auto n = static_cast<std::size_t>(w_->grid().nlon);
-  auto at = [&](int j, int i) { return static_cast<double>(o[static_cast<std::size_t>(j) * n + static_cast<std::size_t>(i)]); };
+  auto at = [&](int j, int i) {
+    return static_cast<double>(o[static_cast<std::size_t>(j) * n + static_cast<std::size_t>(i)]);
+  };
   return (1 - s.wy) * ((1 - s.wx) * at(s.j0, s.i0) + s.wx * at(s.j0, s.i1)) +
          s.wy * ((1 - s.wx) * at(s.j1, s.i0) + s.wx * at(s.j1, s.i1));
 }
@@ -114,11 +118,13 @@ double Column::interpolate(Field f, double lnp) const {
       break;
     }
   }
-  if (above < 0) return below >= 0 && lnp_[static_cast<std::size_t>(below)] == lnp ? v[static_cast<std::size_t>(below)] : nan;
+  if (above < 0)
+    return below >= 0 && lnp_[static_cast<std::size_t>(below)] == lnp ? v[static_cast<std::size_t>(below)] : nan;
   if (below < 0) return v[static_cast<std::size_t>(above)];  // under the lowest level: hold its value
   const double a = lnp_[static_cast<std::size_t>(below)], b = lnp_[static_cast<std::size_t>(above)];
   const double t = (lnp - a) / (b - a);
-  return v[static_cast<std::size_t>(below)] + t * (v[static_cast<std::size_t>(above)] - v[static_cast<std::size_t>(below)]);
+  return v[static_cast<std::size_t>(below)] +
+         t * (v[static_cast<std::size_t>(above)] - v[static_cast<std::size_t>(below)]);
 }
 
 WeatherSample Column::at(double altitude_m) const {
@@ -127,7 +133,8 @@ WeatherSample Column::at(double altitude_m) const {
   const double h = earth::geopotential_from_geometric_m(altitude_m);
   s.geopotential_height_gpm = h;
   if (h_.empty()) {
-    s.pressure_pa = s.temperature_k = s.relative_humidity = s.omega_pa_s = s.u_m_s = s.v_m_s = s.cloud_water_kg_kg = nan;
+    s.pressure_pa = s.temperature_k = s.relative_humidity = s.omega_pa_s = s.u_m_s = s.v_m_s = s.cloud_water_kg_kg =
+        nan;
     return s;
   }
   // ln p is linear in height within each layer (hypsometric equation for an isothermal layer);

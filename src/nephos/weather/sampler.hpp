@@ -17,14 +17,14 @@
 namespace nephos::weather {
 
 struct WeatherSample {
-  double altitude_m = 0;               ///< geometric, above mean sea level
+  double altitude_m = 0;  ///< geometric, above mean sea level
   double geopotential_height_gpm = 0;
   double pressure_pa = 0;
   double temperature_k = 0;
-  double relative_humidity = 0;        ///< fraction (1 = saturated)
-  double omega_pa_s = 0;               ///< dp/dt: positive = sinking air
+  double relative_humidity = 0;  ///< fraction (1 = saturated)
+  double omega_pa_s = 0;         ///< dp/dt: positive = sinking air
   double u_m_s = 0, v_m_s = 0;
-  double cloud_water_kg_kg = 0;        ///< NaN when the file has no clwmr
+  double cloud_water_kg_kg = 0;  ///< NaN when the file has no clwmr
   /// Upward vertical velocity in pressure units [Pa/s]: -omega (positive = rising air).
   double updraft_pa_s() const { return -omega_pa_s; }
 };

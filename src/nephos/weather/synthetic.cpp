@@ -1,8 +1,8 @@
 #include "nephos/weather/synthetic.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
@@ -30,8 +30,8 @@ double pattern(std::uint64_t seed, std::uint64_t channel, double lat_deg, double
 
 double synthetic_temperature_k(double lat_deg, double h_gpm, const SyntheticWeatherParams& p) {
   const double s2 = std::pow(std::sin(lat_deg * earth::deg), 2);
-  const double t_surface = 300.0 - 50.0 * s2;          // [K]: 300 at the equator, 250 at the poles
-  const double h_tropopause = 16000.0 - 8000.0 * s2;   // [gpm]
+  const double t_surface = 300.0 - 50.0 * s2;         // [K]: 300 at the equator, 250 at the poles
+  const double h_tropopause = 16000.0 - 8000.0 * s2;  // [gpm]
   return t_surface - p.lapse_rate_k_per_m * std::min(h_gpm, h_tropopause);
 }
 
@@ -63,7 +63,7 @@ WeatherGrid make_synthetic_weather(const SyntheticWeatherParams& p) {
     std::vector<double> h_level(static_cast<std::size_t>(nk));
     double h = 0, lnp = std::log(p.surface_pressure_hpa * 100.0);
     int k = 0;
-    while (k < nk && std::log(levels[static_cast<std::size_t>(k)]) > lnp) {  // levels under the surface
+    while (k < nk && std::log(levels[static_cast<std::size_t>(k)]) > lnp) {     // levels under the surface
       const double dlnp = std::log(levels[static_cast<std::size_t>(k)]) - lnp;  // > 0: integrate downward
       h_level[static_cast<std::size_t>(k)] = -dlnp * r_dry * synthetic_temperature_k(lat, 0, p) / earth::g0_m_s2;
       ++k;

@@ -14,7 +14,7 @@ namespace nephos::weather {
 
 struct SyntheticWeatherParams {
   std::uint64_t seed = 1;
-  double resolution_deg = 2.5;       ///< grid spacing (global grid, lat -90..90)
+  double resolution_deg = 2.5;  ///< grid spacing (global grid, lat -90..90)
   std::vector<double> levels_hpa = {1000, 975, 950, 925, 900, 850, 800, 750, 700, 650, 600, 550, 500,
                                     450,  400, 350, 300, 250, 200, 150, 100, 70,  50,  30,  20,  10};
   double surface_pressure_hpa = 1013.25;

@@ -21,9 +21,13 @@ TEST(SyntheticWeather, DeterministicFromSeedWhateverTheThreads) {
   set_threads(0);
   const std::size_t n = a.grid().size();
   for (int k = 0; k < a.level_count(); ++k) {
-    EXPECT_EQ(std::memcmp(a.level_data(Field::relative_humidity, k), b.level_data(Field::relative_humidity, k), n * sizeof(float)), 0);
+    EXPECT_EQ(std::memcmp(a.level_data(Field::relative_humidity, k), b.level_data(Field::relative_humidity, k),
+                          n * sizeof(float)),
+              0);
   }
-  EXPECT_NE(std::memcmp(a.level_data(Field::relative_humidity, 5), c.level_data(Field::relative_humidity, 5), n * sizeof(float)), 0);
+  EXPECT_NE(std::memcmp(a.level_data(Field::relative_humidity, 5), c.level_data(Field::relative_humidity, 5),
+                        n * sizeof(float)),
+            0);
 }
 
 TEST(SyntheticWeather, HeightsIncreaseUpwardAndFieldsAreComplete) {

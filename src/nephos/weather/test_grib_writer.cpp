@@ -15,7 +15,8 @@ void ok(int err, const char* what) {
 void append_grib(const std::filesystem::path& path, const GribGridSpec& s, const std::string& short_name,
                  const std::string& type_of_level, long level, const std::function<double(double, double)>& f,
                  long data_date, long data_time, long step_h) {
-  codes_handle* h = codes_handle_new_from_samples(nullptr, s.edition == 1 ? "regular_ll_pl_grib1" : "regular_ll_pl_grib2");
+  codes_handle* h =
+      codes_handle_new_from_samples(nullptr, s.edition == 1 ? "regular_ll_pl_grib1" : "regular_ll_pl_grib2");
   if (!h) throw std::runtime_error("ecCodes sample missing");
   const double lat_last = s.lat_first + (s.j_scans_positively ? 1 : -1) * (s.nj - 1) * s.dlat;
   const double lon_last = s.lon_first + (s.i_scans_negatively ? -1 : 1) * (s.ni - 1) * s.dlon;
@@ -48,7 +49,8 @@ void append_grib(const std::filesystem::path& path, const GribGridSpec& s, const
   codes_handle_delete(h);
 }
 
-void append_grib_from_sample(const std::filesystem::path& path, const std::string& sample, const std::string& short_name) {
+void append_grib_from_sample(const std::filesystem::path& path, const std::string& sample,
+                             const std::string& short_name) {
   codes_handle* h = codes_handle_new_from_samples(nullptr, sample.c_str());
   if (!h) throw std::runtime_error("ecCodes sample missing: " + sample);
   size_t len = short_name.size();

@@ -1,7 +1,7 @@
 #include "nephos/weather/weather_grid.hpp"
 
-#include <algorithm>
 #include <fmt/format.h>
+#include <algorithm>
 #include <limits>
 
 #include "nephos/core/error.hpp"
@@ -89,8 +89,12 @@ float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, doub
     i1 = i0 + 1;
     fx -= i0;
   }
-  auto at = [&](int j, int i) { return static_cast<double>(field[static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i)]); };
-  const double v = (1 - wy) * ((1 - fx) * at(j0, i0) + fx * at(j0, i1)) + wy * ((1 - fx) * at(j0 + 1, i0) + fx * at(j0 + 1, i1));
+  auto at = [&](int j, int i) {
+    return static_cast<double>(
+        field[static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i)]);
+  };
+  const double v =
+      (1 - wy) * ((1 - fx) * at(j0, i0) + fx * at(j0, i1)) + wy * ((1 - fx) * at(j0 + 1, i0) + fx * at(j0 + 1, i1));
   return static_cast<float>(v);
 }
 

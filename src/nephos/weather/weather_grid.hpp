@@ -30,7 +30,7 @@ struct FieldInfo {
   const char* grib_short_name;  ///< ecCodes shortName
   const char* units;            ///< units as stored in WeatherGrid
   const char* long_name;
-  bool required;                ///< required for a complete weather description
+  bool required;  ///< required for a complete weather description
 };
 const FieldInfo& info(Field f);
 const std::array<FieldInfo, field_count>& all_fields();
@@ -60,12 +60,12 @@ struct LatLonGrid {
 };
 
 struct WeatherMetadata {
-  UtcTime reference_time;       ///< analysis / model run time
-  double forecast_step_h = 0;   ///< hours from reference to valid time
+  UtcTime reference_time;      ///< analysis / model run time
+  double forecast_step_h = 0;  ///< hours from reference to valid time
   UtcTime valid_time;
-  std::string source;           ///< file it came from (or "synthetic seed=N")
-  std::string producer;         ///< e.g. "kwbc (NCEP)"
-  int grib_edition = 0;         ///< 1 or 2; 0 when not from GRIB
+  std::string source;    ///< file it came from (or "synthetic seed=N")
+  std::string producer;  ///< e.g. "kwbc (NCEP)"
+  int grib_edition = 0;  ///< 1 or 2; 0 when not from GRIB
 };
 
 class WeatherGrid {
@@ -100,7 +100,8 @@ class WeatherGrid {
   std::vector<float>& orography_m_mut() { return orography_m_; }
 
   std::size_t index(int k, int j, int i) const {
-    return (static_cast<std::size_t>(k) * grid_.nlat + static_cast<std::size_t>(j)) * grid_.nlon + static_cast<std::size_t>(i);
+    return (static_cast<std::size_t>(k) * grid_.nlat + static_cast<std::size_t>(j)) * grid_.nlon +
+           static_cast<std::size_t>(i);
   }
 
  private:
