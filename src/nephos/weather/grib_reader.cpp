@@ -49,35 +49,34 @@ long get_long(codes_handle* h, const char* key, long fallback = 0) {
   return codes_get_long(h, key, &v) == 0 ? v : fallback;
 }
 
-// One message's values on a normalised regular lat-lon grid (see weather_grid.hpp).
-struct Decoded {
+// Where each of a message's values goes on the normalised grid (see weather_grid.hpp).
+struct Geometry {
   LatLonGrid grid;
-  std::vector<float> values;  // nlat*nlon, j south->north, i east from lon0
+  std::vector<std::uint32_t> destination;  // value index in the message -> j*nlon + i
 };
 
-Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::string& field) {
-  const std::string grid_type = get_string(h, "gridType");
-  if (grid_type != "regular_ll")
-    throw FormatError(fmt::format("grid type '{}' is not supported (only regular_ll, a regular latitude-longitude "
-                                  "grid); regrid it first, e.g. with cdo remapbil or wgrib2 -new_grid",
-                                  grid_type),
-                      {.file = file, .field = field});
-  size_t n = 0;
-  if (codes_get_size(h, "values", &n) != 0 || n == 0)
-    throw FormatError("message has no values", {.file = file, .field = field});
-  const long ni = get_long(h, "Ni"), nj = get_long(h, "Nj");
-  if (ni < 2 || nj < 2 || static_cast<size_t>(ni * nj) != n)
-    throw FormatError(fmt::format("Ni x Nj = {} x {} does not match {} values", ni, nj, n),
-                      {.file = file, .field = field});
+// The keys that fix a regular_ll message's point layout; messages that agree on all of them
+// share one Geometry, so per-point coordinates are computed once per file, not per message.
+std::string geometry_key(codes_handle* h) {
+  std::string key;
+  for (const char* k : {"Ni", "Nj", "iScansNegatively", "jScansPositively", "jPointsAreConsecutive",
+                        "alternativeRowScanning"})
+    key += std::to_string(get_long(h, k, -1)) + ",";
+  for (const char* k : {"latitudeOfFirstGridPointInDegrees", "longitudeOfFirstGridPointInDegrees",
+                        "latitudeOfLastGridPointInDegrees", "longitudeOfLastGridPointInDegrees"}) {
+    double v = 0;
+    codes_get_double(h, k, &v);
+    key += fmt::format("{:.6f},", v);
+  }
+  return key;
+}
+
+Geometry compute_geometry(codes_handle* h, size_t n, long ni, long nj, const std::string& file,
+                          const std::string& field) {
   std::vector<double> lats(n), lons(n), vals(n);
   if (const int err = codes_grib_get_data(h, lats.data(), lons.data(), vals.data()); err != 0)
-    throw FormatError(std::string("cannot decode values: ") + codes_get_error_message(err),
+    throw FormatError(std::string("cannot decode coordinates: ") + codes_get_error_message(err),
                       {.file = file, .field = field});
-
-  double missing = 9999;
-  codes_get_double(h, "missingValue", &missing);
-  const bool has_bitmap = get_long(h, "bitmapPresent") != 0;
-
   // Latitude rows.
   const auto [lat_min_it, lat_max_it] = std::minmax_element(lats.begin(), lats.end());
   const double lat_min = *lat_min_it, lat_max = *lat_max_it;
@@ -103,14 +102,13 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
         lon0 = sl[i];
       }
   }
-  Decoded d;
-  d.grid = {static_cast<int>(nj), static_cast<int>(ni), lat_min, dlat, lon0, std::abs(dlon)};
-  const double recompute_dlon = d.grid.dlon_deg;
-  d.values.assign(n, std::numeric_limits<float>::quiet_NaN());
+  Geometry g;
+  g.grid = {static_cast<int>(nj), static_cast<int>(ni), lat_min, dlat, lon0, dlon};
+  g.destination.resize(n);
   std::vector<char> filled(n, 0);
   for (size_t p = 0; p < n; ++p) {
     const double fj = (lats[p] - lat_min) / dlat;
-    const double fi = earth::wrap_lon_360(lons[p] - lon0) / recompute_dlon;
+    const double fi = earth::wrap_lon_360(lons[p] - lon0) / dlon;
     const long j = std::lround(fj), i = std::lround(fi) % ni;
     if (std::abs(fj - static_cast<double>(j)) > 1e-3 || std::abs(fi - std::round(fi)) > 1e-3 || j < 0 || j >= nj)
       throw FormatError(fmt::format("point {} at ({}, {}) is not on a regular lat-lon lattice", p, lats[p], lons[p]),
@@ -118,9 +116,50 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
     const size_t q = static_cast<size_t>(j * ni + i);
     if (filled[q]) throw FormatError("two values at the same grid point", {.file = file, .field = field});
     filled[q] = 1;
-    const bool is_missing = has_bitmap && vals[p] == missing;
-    d.values[q] = is_missing ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(vals[p]);
+    g.destination[p] = static_cast<std::uint32_t>(q);
   }
+  return g;
+}
+
+// One message's values on the normalised grid.
+struct Decoded {
+  LatLonGrid grid;
+  std::vector<float> values;  // nlat*nlon, j south->north, i east from lon0; NaN = missing
+};
+
+Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::string& field,
+                          std::map<std::string, Geometry>& geometry_cache) {
+  const std::string grid_type = get_string(h, "gridType");
+  if (grid_type != "regular_ll")
+    throw FormatError(fmt::format("grid type '{}' is not supported (only regular_ll, a regular latitude-longitude "
+                                  "grid); regrid it first, e.g. with cdo remapbil or wgrib2 -new_grid",
+                                  grid_type),
+                      {.file = file, .field = field});
+  size_t n = 0;
+  if (codes_get_size(h, "values", &n) != 0 || n == 0)
+    throw FormatError("message has no values", {.file = file, .field = field});
+  const long ni = get_long(h, "Ni"), nj = get_long(h, "Nj");
+  if (ni < 2 || nj < 2 || static_cast<size_t>(ni * nj) != n)
+    throw FormatError(fmt::format("Ni x Nj = {} x {} does not match {} values", ni, nj, n),
+                      {.file = file, .field = field});
+  const std::string key = geometry_key(h);
+  auto it = geometry_cache.find(key);
+  if (it == geometry_cache.end()) it = geometry_cache.emplace(key, compute_geometry(h, n, ni, nj, file, field)).first;
+  const Geometry& geo = it->second;
+
+  std::vector<double> vals(n);
+  size_t len = n;
+  if (const int err = codes_get_double_array(h, "values", vals.data(), &len); err != 0 || len != n)
+    throw FormatError(std::string("cannot decode values: ") + codes_get_error_message(err),
+                      {.file = file, .field = field});
+  double missing = 9999;
+  codes_get_double(h, "missingValue", &missing);
+  const bool has_bitmap = get_long(h, "bitmapPresent") != 0;
+  Decoded d;
+  d.grid = geo.grid;
+  d.values.assign(n, std::numeric_limits<float>::quiet_NaN());
+  for (size_t p = 0; p < n; ++p)
+    if (!(has_bitmap && vals[p] == missing)) d.values[geo.destination[p]] = static_cast<float>(vals[p]);
   return d;
 }
 
@@ -199,6 +238,7 @@ class GribReader final : public WeatherReader {
     meta.source = file;
     bool have_time = false;
     std::set<std::pair<int, long long>> seen;  // (field, pressure in mPa) duplicates
+    std::map<std::string, Geometry> geometry_cache;
     std::set<std::string> held;                // what the file has besides pressure-level fields
 
     auto check_grid = [&](const LatLonGrid& g, const std::string& field) {
@@ -232,7 +272,7 @@ class GribReader final : public WeatherReader {
           spdlog::warn("{}: duplicate message for {}; keeping the first", file, name);
           return;
         }
-        Decoded d = decode_regular_ll(h, file, name);
+        Decoded d = decode_regular_ll(h, file, name, geometry_cache);
         check_grid(d.grid, name);
         const float s = scale_for(sn);
         if (s != 1.0f)
@@ -244,13 +284,13 @@ class GribReader final : public WeatherReader {
         }
       } else if (sn == "tcc") {
         if (auto layer = cloud_layer_for(lt)) {
-          Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt));
+          Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt), geometry_cache);
           check_grid(d.grid, "tcc");
           for (float& v : d.values) v *= 0.01f;
           cloud[*layer] = std::move(d.values);
         }
       } else if (sn == "orog" && lt == "surface") {
-        Decoded d = decode_regular_ll(h, file, "orog");
+        Decoded d = decode_regular_ll(h, file, "orog", geometry_cache);
         check_grid(d.grid, "orog");
         orography = std::move(d.values);
       }

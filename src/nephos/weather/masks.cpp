@@ -41,6 +41,7 @@ MaskParams MaskParams::from(const ParamDict& dict) {
   p.cloud_fraction.condensate_coefficient = cf.get("condensate_coefficient", p.cloud_fraction.condensate_coefficient);
   p.cloud_fraction.min_condensate_kg_kg = cf.get("min_condensate_kg_kg", p.cloud_fraction.min_condensate_kg_kg);
   p.cloud_fraction.rh_critical = cf.get("rh_critical", p.cloud_fraction.rh_critical);
+  p.cloud_fraction.use_condensate = cf.get("use_condensate", p.cloud_fraction.use_condensate);
   const ParamDict m = dict.table("masks");
   p.vertical_step_m = m.get("vertical_step_m", p.vertical_step_m);
   p.updraft_ramp_pa_s = m.get("updraft_ramp_pa_s", p.updraft_ramp_pa_s);
@@ -90,7 +91,7 @@ double saturation_mixing_ratio(double temperature_k, double pressure_pa) {
 double cloud_fraction(double rh, double qc, double temperature_k, double pressure_pa, const CloudFractionParams& p) {
   if (std::isnan(rh) || std::isnan(temperature_k)) return 0;
   rh = std::clamp(rh, 0.0, 1.0);
-  if (std::isnan(qc)) {  // no condensate in the file: a humidity ramp
+  if (std::isnan(qc) || !p.use_condensate) {  // no condensate in the file: a humidity ramp
     return std::clamp((rh - p.rh_critical) / (1 - p.rh_critical), 0.0, 1.0);
   }
   if (qc <= p.min_condensate_kg_kg * pressure_pa / 1e5) return 0;

@@ -37,7 +37,8 @@ struct CloudFractionParams {
   double rh_exponent = 0.25;               ///< p
   double condensate_coefficient = 2000.0;  ///< a [dimensionless]
   double min_condensate_kg_kg = 1e-6;      ///< q_min at 1000 hPa, scaled by p/1000 hPa
-  double rh_critical = 0.8;                ///< RH-ramp fallback when the file has no clwmr
+  double rh_critical = 0.9;                ///< RH-ramp fallback when the file has no clwmr
+  bool use_condensate = true;              ///< false: always the RH ramp (for comparison)
 };
 
 struct CloudTypeMaskParams {

@@ -17,8 +17,8 @@ namespace {
 constexpr double inf = std::numeric_limits<double>::infinity();
 
 // Isothermal (250 K) atmosphere on a coarse global grid, levels every 50 hPa. Relative
-// humidity 0.9 on the given pressure plateaus [hPa] and 0.3 elsewhere, no condensate field
-// (so the RH-ramp cloud fraction applies: (0.9 - 0.8) / 0.2 = 0.5 on a plateau).
+// humidity 0.95 on the given pressure plateaus [hPa] and 0.3 elsewhere, no condensate field
+// (so the RH-ramp cloud fraction applies: (0.95 - 0.9) / 0.1 = 0.5 on a plateau).
 WeatherGrid plateau_grid(std::vector<std::pair<double, double>> plateaus_hpa, double omega_pa_s) {
   LatLonGrid g{3, 4, -90, 90, 0, 90};
   std::vector<double> levels;
@@ -32,7 +32,7 @@ WeatherGrid plateau_grid(std::vector<std::pair<double, double>> plateaus_hpa, do
     for (std::size_t q = 0; q < g.size(); ++q) {
       w.level_data(Field::geopotential_height, k)[q] = static_cast<float>(h);
       w.level_data(Field::temperature, k)[q] = 250.0f;
-      w.level_data(Field::relative_humidity, k)[q] = wet ? 0.9f : 0.3f;
+      w.level_data(Field::relative_humidity, k)[q] = wet ? 0.95f : 0.3f;
       w.level_data(Field::omega, k)[q] = static_cast<float>(omega_pa_s);
     }
   }
@@ -56,9 +56,9 @@ TEST(CloudFraction, LimitsAndMonotonicity) {
     EXPECT_GT(c, prev);
     prev = c;
   }
-  // Without a condensate field: the humidity ramp (RH - 0.8) / 0.2.
-  EXPECT_DOUBLE_EQ(cloud_fraction(0.9, std::nan(""), 280, 90000, p), 0.5);
-  EXPECT_EQ(cloud_fraction(0.7, std::nan(""), 280, 90000, p), 0.0);
+  // Without a condensate field: the humidity ramp (RH - 0.9) / 0.1.
+  EXPECT_NEAR(cloud_fraction(0.95, std::nan(""), 280, 90000, p), 0.5, 1e-12);  // rounding of 0.95 - 0.9
+  EXPECT_EQ(cloud_fraction(0.85, std::nan(""), 280, 90000, p), 0.0);
 }
 
 TEST(CloudFraction, SaturationMixingRatioMatchesTables) {
@@ -92,9 +92,11 @@ TEST(Masks, VerticalWindDecidesStratusOrCumulus) {
   const auto sinking = compute_masks(plateau_grid({{900, 800}}, 0.05), p);
   EXPECT_NEAR(sinking[CloudType::low_stratus][5], 0.5, 1e-6);
   EXPECT_EQ(sinking[CloudType::low_cumulus][5], 0.0f);
-  // Exactly on the threshold the ramp splits the cloud evenly: the two sum to the cloud.
+  // Exactly on the 0.12 Pa/s threshold each gate is at the middle of its ramp (0.5): the
+  // cloud is split evenly and the two types sum to it.
   const auto edge = compute_masks(plateau_grid({{900, 800}}, -0.12), p);
-  EXPECT_NEAR(edge[CloudType::low_stratus][5] + edge[CloudType::low_cumulus][5], 0.5 + 0.5 * 0.5 * 0.5 - 0.125, 0.13);
+  EXPECT_NEAR(edge[CloudType::low_stratus][5], 0.25, 1e-6);
+  EXPECT_NEAR(edge[CloudType::low_cumulus][5], 0.25, 1e-6);
 }
 
 TEST(Masks, TemperatureDecidesAltostratusOrCirrus) {
@@ -113,6 +115,26 @@ TEST(Masks, ParametersFromTomlRejectUnknownKeys) {
   EXPECT_THROW(d.check_unused(), ConfigError);
   EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks.cirrus]\ntemperature_at = 'middle'\n")), ConfigError);
   EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks.cirrus]\nband_top_m = -5.0\n")), ConfigError);
+}
+
+TEST(Masks, ShippedParameterFileIsCompleteAndEqualsTheDefaults) {
+  const auto d = ParamDict::from_file(std::filesystem::path(NEPHOS_SOURCE_DIR) / "configs/masks.toml");
+  const MaskParams p = MaskParams::from(d);
+  EXPECT_NO_THROW(d.check_unused());
+  const MaskParams def;
+  EXPECT_EQ(p.cloud_fraction.rh_critical, def.cloud_fraction.rh_critical);
+  EXPECT_EQ(p.vertical_step_m, def.vertical_step_m);
+  for (int t = 0; t < cloud_type_count; ++t) {
+    const auto& a = p.types[static_cast<std::size_t>(t)];
+    const auto& b = def.types[static_cast<std::size_t>(t)];
+    EXPECT_EQ(a.band_bottom_m, b.band_bottom_m);
+    EXPECT_EQ(a.band_top_m, b.band_top_m);
+    EXPECT_EQ(a.updraft_min_pa_s, b.updraft_min_pa_s);
+    EXPECT_EQ(a.updraft_max_pa_s, b.updraft_max_pa_s);
+    EXPECT_EQ(a.temperature_min_c, b.temperature_min_c);
+    EXPECT_EQ(a.temperature_max_c, b.temperature_max_c);
+    EXPECT_EQ(a.temperature_at, b.temperature_at);
+  }
 }
 
 TEST(Masks, MissingFieldsAreNamed) {
