@@ -1,0 +1,144 @@
+#include "nephos/noise/fractal_texture.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
+
+namespace nephos::noise {
+namespace {
+
+int wrap(int i, int period) {
+  const int r = i % period;
+  return r < 0 ? r + period : r;
+}
+
+// Perlin's improved fade curve 6t^5 - 15t^4 + 10t^3 (C2-continuous).
+double fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
+
+// Per-octave lattice tables: unit gradients (Perlin) or feature points (Worley) for each of
+// cells^3 lattice cells, drawn from the counter-based hash of (seed, octave, i, j, k).
+class Evaluator {
+ public:
+  Evaluator(const FractalSpec& spec, std::uint64_t seed) : spec_(spec) {
+    for (int o = 0; o < spec.octaves; ++o) {
+      const int c = spec.base_cells << o;
+      std::vector<float> t(static_cast<std::size_t>(c) * c * c * 3);
+      for (int k = 0; k < c; ++k)
+        for (int j = 0; j < c; ++j)
+          for (int i = 0; i < c; ++i) {
+            const std::uint64_t h = hash(seed, static_cast<std::uint64_t>(o), static_cast<std::uint64_t>(i),
+                                         static_cast<std::uint64_t>(j), static_cast<std::uint64_t>(k));
+            float* g = &t[((static_cast<std::size_t>(k) * c + j) * c + i) * 3];
+            if (spec.kind == FractalKind::perlin) {  // uniform on the unit sphere
+              const double z = 2.0 * to_unit_double(h) - 1.0;
+              const double phi = 2.0 * M_PI * to_unit_double(mix64(h));
+              const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+              g[0] = static_cast<float>(r * std::cos(phi));
+              g[1] = static_cast<float>(r * std::sin(phi));
+              g[2] = static_cast<float>(z);
+            } else {  // feature point offset within the cell, uniform in [0, 1)^3
+              g[0] = static_cast<float>(to_unit_double(h));
+              g[1] = static_cast<float>(to_unit_double(mix64(h)));
+              g[2] = static_cast<float>(to_unit_double(mix64(mix64(h))));
+            }
+          }
+      tables_.push_back(std::move(t));
+    }
+  }
+
+  double operator()(double x, double y, double z) const {
+    double sum = 0, amp = 1;
+    for (int o = 0; o < spec_.octaves; ++o) {
+      const int cells = spec_.base_cells << o;
+      sum += amp * (spec_.kind == FractalKind::perlin ? perlin(o, cells, x, y, z) : worley(o, cells, x, y, z));
+      amp *= spec_.persistence;
+    }
+    return sum;
+  }
+
+ private:
+  const float* entry(int o, int cells, int i, int j, int k) const {
+    return &tables_[static_cast<std::size_t>(o)]
+                   [((static_cast<std::size_t>(wrap(k, cells)) * cells + wrap(j, cells)) * cells + wrap(i, cells)) * 3];
+  }
+
+  // Periodic gradient noise in about [-1, 1] with `cells` lattice cells across the unit tile.
+  double perlin(int o, int cells, double x, double y, double z) const {
+    const double px = x * cells, py = y * cells, pz = z * cells;
+    const int ix = static_cast<int>(std::floor(px)), iy = static_cast<int>(std::floor(py)),
+              iz = static_cast<int>(std::floor(pz));
+    const double fx = px - ix, fy = py - iy, fz = pz - iz;
+    double n[2][2][2];
+    for (int c = 0; c < 8; ++c) {
+      const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+      const float* g = entry(o, cells, ix + dx, iy + dy, iz + dz);
+      n[dz][dy][dx] = g[0] * (fx - dx) + g[1] * (fy - dy) + g[2] * (fz - dz);
+    }
+    const double u = fade(fx), v = fade(fy), w = fade(fz);
+    auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+    return lerp(lerp(lerp(n[0][0][0], n[0][0][1], u), lerp(n[0][1][0], n[0][1][1], u), v),
+                lerp(lerp(n[1][0][0], n[1][0][1], u), lerp(n[1][1][0], n[1][1][1], u), v), w);
+  }
+
+  // Periodic Worley noise: distance to the nearest feature point (one per cell), in cell units.
+  double worley(int o, int cells, double x, double y, double z) const {
+    const double px = x * cells, py = y * cells, pz = z * cells;
+    const int ix = static_cast<int>(std::floor(px)), iy = static_cast<int>(std::floor(py)),
+              iz = static_cast<int>(std::floor(pz));
+    double best = std::numeric_limits<double>::max();
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const float* f = entry(o, cells, ix + dx, iy + dy, iz + dz);
+          const double ex = (ix + dx) + double{f[0]} - px, ey = (iy + dy) + double{f[1]} - py,
+                       ez = (iz + dz) + double{f[2]} - pz;
+          best = std::min(best, ex * ex + ey * ey + ez * ez);
+        }
+    return std::sqrt(best);
+  }
+
+  FractalSpec spec_;
+  std::vector<std::vector<float>> tables_;
+};
+
+}  // namespace
+
+double fractal_value(const FractalSpec& spec, std::uint64_t seed, double x, double y, double z) {
+  return Evaluator(spec, seed)(x, y, z);
+}
+
+Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
+  if (n < 8 || (n & (n - 1)) != 0)
+    throw ValueError(fmt::format("texture size must be a power of two >= 8, got {}", n), {.key = "texture"});
+  if (spec.base_cells < 1 || spec.octaves < 1 || (spec.base_cells << (spec.octaves - 1)) > n)
+    throw ValueError(fmt::format("fractal with {} base cells and {} octaves needs a texture of at least {} voxels",
+                                 spec.base_cells, spec.octaves, spec.base_cells << (spec.octaves - 1)),
+                     {.key = "octaves"});
+  const std::size_t count = static_cast<std::size_t>(n) * n * n;
+  std::vector<float> raw(count);
+  const Evaluator eval(spec, seed);
+  const double inv = 1.0 / n;
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        raw[(static_cast<std::size_t>(k) * n + j) * n + i] =
+            static_cast<float>(eval(i * inv, j * inv, k * inv));
+  const auto [lo_it, hi_it] = std::minmax_element(raw.begin(), raw.end());
+  const float lo = *lo_it, span = std::max(*hi_it - lo, 1e-30f);
+  Texture3D t(n);
+  std::uint16_t* d = t.data();
+#pragma omp parallel for schedule(static)
+  for (std::size_t q = 0; q < count; ++q) {
+    float v = (raw[q] - lo) / span;
+    if (spec.invert) v = 1.0f - v;
+    d[q] = static_cast<std::uint16_t>(std::lround(v * 65535.0f));
+  }
+  return t;
+}
+
+}  // namespace nephos::noise

@@ -1,0 +1,82 @@
+#include "nephos/noise/fractal_texture.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/parallel.hpp"
+
+namespace nephos::noise {
+
+const FractalSpec perlin_spec{FractalKind::perlin, 4, 3, 0.5, false};
+const FractalSpec worley_spec{FractalKind::worley, 4, 2, 0.5, true};
+
+TEST(Fractal, IsPeriodicWithPeriodOne) {
+  for (const auto& spec : {perlin_spec, worley_spec})
+    for (double x : {0.013, 0.37, 0.91}) {
+      // Exact periodicity up to the rounding of x + 1 (the lattice index wraps exactly).
+      EXPECT_NEAR(fractal_value(spec, 5, x, 0.2, 0.7), fractal_value(spec, 5, x + 1, 0.2, 0.7), 1e-9);
+      EXPECT_NEAR(fractal_value(spec, 5, 0.3, x, 0.7), fractal_value(spec, 5, 0.3, x - 1, 0.7), 1e-9);
+      EXPECT_NEAR(fractal_value(spec, 5, 0.3, 0.6, x), fractal_value(spec, 5, 0.3, 0.6, x + 2), 1e-9);
+    }
+}
+
+TEST(Fractal, PerlinVanishesOnTheLattice) {
+  // Gradient noise is zero at every lattice point of every octave (Perlin 1985).
+  EXPECT_NEAR(fractal_value(perlin_spec, 3, 0.25, 0.5, 0.75), 0.0, 1e-12);
+}
+
+TEST(Texture, SpansZeroToOneAndQuantisesWithinHalfAStep) {
+  constexpr int n = 16;
+  const Texture3D t = bake(perlin_spec, 11, n);
+  float lo = 1, hi = 0;
+  double raw_lo = 1e9, raw_hi = -1e9;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        lo = std::min(lo, t.voxel(i, j, k));
+        hi = std::max(hi, t.voxel(i, j, k));
+        const double r = fractal_value(perlin_spec, 11, i / 16.0, j / 16.0, k / 16.0);
+        raw_lo = std::min(raw_lo, r);
+        raw_hi = std::max(raw_hi, r);
+      }
+  EXPECT_EQ(lo, 0.0f);
+  EXPECT_EQ(hi, 1.0f);
+  // The 16-bit value differs from the exact normalised fractal by at most half a step
+  // (0.5/65535) plus float rounding of the normalisation (~1e-7).
+  for (int q = 0; q < 200; ++q) {
+    const int i = q % n, j = (q * 7) % n, k = (q * 13) % n;
+    const double exact = (fractal_value(perlin_spec, 11, i / 16.0, j / 16.0, k / 16.0) - raw_lo) / (raw_hi - raw_lo);
+    EXPECT_NEAR(t.voxel(i, j, k), exact, 0.5 / 65535 + 2e-7);
+  }
+}
+
+TEST(Texture, TrilinearSamplingHitsVoxelsAndWraps) {
+  const Texture3D t = bake(worley_spec, 2, 16);
+  EXPECT_FLOAT_EQ(t.sample(3 / 16.0f, 5 / 16.0f, 7 / 16.0f), t.voxel(3, 5, 7));
+  EXPECT_FLOAT_EQ(t.sample(0.3f, 0.4f, 0.5f), t.sample(1.3f, -0.6f, 2.5f));
+  // Halfway between two voxels along x: their mean.
+  EXPECT_NEAR(t.sample(3.5f / 16, 5 / 16.0f, 7 / 16.0f), 0.5f * (t.voxel(3, 5, 7) + t.voxel(4, 5, 7)), 1e-6);
+  // Across the tile edge: halfway between voxel 15 and voxel 0.
+  EXPECT_NEAR(t.sample(15.5f / 16, 0, 0), 0.5f * (t.voxel(15, 0, 0) + t.voxel(0, 0, 0)), 1e-6);
+}
+
+TEST(Texture, DeterministicAcrossThreadsAndSeedDependent) {
+  set_threads(1);
+  const Texture3D a = bake(perlin_spec, 9, 32);
+  set_threads(2);
+  const Texture3D b = bake(perlin_spec, 9, 32);
+  const Texture3D c = bake(perlin_spec, 10, 32);
+  set_threads(0);
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.bytes()), 0);
+  EXPECT_NE(std::memcmp(a.data(), c.data(), a.bytes()), 0);
+}
+
+TEST(Texture, RejectsBadSizes) {
+  EXPECT_THROW(bake(perlin_spec, 1, 100), ValueError);
+  EXPECT_THROW(bake(FractalSpec{FractalKind::perlin, 8, 4, 0.5, false}, 1, 32), ValueError);  // 64 cells > 32
+}
+
+}  // namespace nephos::noise
