@@ -11,6 +11,8 @@ packages=(
   libeccodes-dev libeccodes-tools     # GRIB1/GRIB2 reader + grib_ls/grib_copy
   libnetcdf-dev netcdf-bin            # CF-NetCDF output + ncdump
   libpng-dev                          # PNG previews
+  libopenexr-dev                      # multi-channel EXR output
+  libglm-dev                          # vector maths
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line
   libspdlog-dev libfmt-dev            # logging, formatting
