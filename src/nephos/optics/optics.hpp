@@ -1,0 +1,75 @@
+#pragma once
+// Radiometry and cloud optics for the global renderer (seed 000, section 2.3):
+// Planck radiance and its inverse, sensor bands, the 1976 U.S. Standard Atmosphere temperature,
+// the two-stream slab relations (2a)-(4b), Beer's law, and cloud optical properties.
+#include <string>
+#include <vector>
+
+namespace nephos::optics {
+
+// ---- Planck -------------------------------------------------------------------------------
+inline constexpr double c1_w_um4_m2_sr = 1.191042972e8;  ///< 2 h c^2 [W um^4 m^-2 sr^-1]
+inline constexpr double c2_um_k = 1.438776877e4;         ///< h c / k [um K]
+inline constexpr double stefan_boltzmann = 5.670374419e-8;  ///< [W m^-2 K^-4] (CODATA 2018)
+
+/// Spectral radiance B(lambda, T) [W m^-2 sr^-1 um^-1].
+double planck(double wavelength_um, double temperature_k);
+/// Brightness temperature [K] of a monochromatic radiance (exact inverse of planck()).
+double brightness_temperature(double wavelength_um, double radiance);
+
+// ---- Sensor bands -------------------------------------------------------------------------
+struct Band {
+  std::string name;               ///< "vis", "nir", "lwir"
+  std::string description;        ///< e.g. "GOES-16 ABI band 2"
+  double centre_um, lo_um, hi_um; ///< central wavelength and band edges
+  double solar_irradiance;        ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
+  bool thermal;                   ///< thermal emission matters (report brightness temperature)
+};
+/// The built-in bands: vis (ABI 2, 0.64 um), nir (ABI 3, 0.86 um), lwir (ABI 13, 10.3 um).
+const std::vector<Band>& bands();
+const Band& band(const std::string& name);  ///< ValueError listing the known names
+
+/// Band-mean Planck radiance [W m^-2 sr^-1 um^-1]: (1 / (hi - lo)) * integral of B over the band.
+double band_planck(const Band& b, double temperature_k);
+/// Inverse of band_planck() [K].
+double band_brightness_temperature(const Band& b, double radiance);
+
+// ---- 1976 U.S. Standard Atmosphere --------------------------------------------------------
+/// Kinetic temperature [K] at geometric altitude [m], 0-86 km (clamped outside), from the
+/// standard's seven geopotential layers (its own Earth radius r0 = 6356.766 km).
+double standard_atmosphere_temperature_k(double altitude_m);
+
+// ---- Slab transport -----------------------------------------------------------------------
+struct SlabResult {
+  double reflectance;    ///< I_ref / I_0
+  double transmittance;  ///< diffuse + direct I_trans / I_0
+};
+/// Exact solution of the two-stream equations (2a)/(2b) (each stream's derivative taken along
+/// its own direction of travel, depth x from the lit face): dI_f/dx = -(Bs+Ba) I_f + Bs I_r,
+/// -dI_r/dx = -(Bs+Ba) I_r + Bs I_f, with I_f(0) = I_0, I_r(L) = 0. With tau = B_ext L,
+/// k = sqrt(1 - omega^2), D = k cosh(k tau) + sinh(k tau):
+///   R = omega sinh(k tau) / D,  T = k / D.
+/// For omega = 1 it reduces to (3a)/(3b).
+SlabResult two_stream_slab(double tau, double omega);
+/// The seed's conservative closed forms (3a) I_trans = I0/(1+tau), (3b) I_ref = I0 tau/(1+tau),
+/// scaled by its absorption fit (4a)/(4b): factor 1 - sqrt(1 - omega^2).
+SlabResult two_stream_fit(double tau, double omega);
+/// Beer's law (5): direct transmittance exp(-tau).
+double beer_transmittance(double tau);
+
+// ---- Cloud optical properties -------------------------------------------------------------
+enum class Phase { water, ice };
+struct OpticalProperties {
+  double extinction_per_m;  ///< B_ext [1/m]
+  double single_scattering_albedo;
+};
+/// Extinction in the geometric-optics limit, B_ext = 3 W Q_ext / (4 rho r_e) with Q_ext = 2
+/// (Stephens 1978; Hansen & Travis 1974), and single-scattering albedo 1 - Q_abs/Q_ext with the
+/// anomalous-diffraction absorption efficiency of a sphere (van de Hulst 1957) for the band's
+/// imaginary refractive index (water: Hale & Querry 1973; ice: Warren & Brandt 2008).
+/// water_content in g/m^3, effective radius in um.
+OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double effective_radius_um, const Band& band);
+/// Imaginary refractive index used for a band.
+double imaginary_index(Phase phase, const Band& band);
+
+}  // namespace nephos::optics
