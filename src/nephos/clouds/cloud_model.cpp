@@ -1,0 +1,241 @@
+#include "nephos/clouds/cloud_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <map>
+#include <spdlog/spdlog.h>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
+
+namespace nephos::clouds {
+
+FractalTextures FractalTextures::bake(std::uint64_t seed, int n) {
+  const CloudModelParams defaults;
+  return {noise::bake(defaults.coarse, hash(seed, 1), n), noise::bake(defaults.fine, hash(seed, 2), n),
+          noise::bake(defaults.worley, hash(seed, 3), n)};
+}
+
+CloudModelParams::CloudModelParams() {
+  using optics::Phase;
+  // Shell ranges and wind (sampling) altitudes: Table 1. Optics: Table 2 (Miles et al. 2000)
+  // for water clouds, the seed's cirrus example (Mitchell et al.) for ice. Shape constants were
+  // chosen by eye against GOES imagery scales: docs/render.md.
+  auto& st = (*this)[CloudType::low_stratus];
+  st.shell_bottom_m = 500, st.shell_top_m = 4000, st.wind_altitude_m = 2000;
+  st.fractals = {{{0.55, 60e3, 8}, {0.20, 6e3, 8}, {0.25, 40e3, 8}}};
+  st.altitude_length_bottom_m = 300, st.altitude_length_top_m = 300;
+  st.phase = Phase::water, st.water_content_g_m3 = 0.4, st.effective_radius_um = 8.15;  // "Stratus": D 16.3 um
+
+  auto& cu = (*this)[CloudType::low_cumulus];
+  cu.shell_bottom_m = 0, cu.shell_top_m = 6000, cu.wind_altitude_m = 2000;
+  cu.fractals = {{{0.35, 30e3, 6}, {0.25, 3e3, 6}, {0.40, 15e3, 6}}};
+  cu.altitude_length_bottom_m = 150, cu.altitude_length_top_m = 1200;  // flat bases, towering tops
+  cu.phase = Phase::water, cu.water_content_g_m3 = 0.38, cu.effective_radius_um = 4.3;  // "Stratocumulus" mid-range
+
+  auto& as = (*this)[CloudType::altostratus];
+  as.shell_bottom_m = 6000, as.shell_top_m = 10000, as.wind_altitude_m = 6000;
+  as.fractals = {{{0.60, 80e3, 10}, {0.20, 8e3, 10}, {0.20, 50e3, 10}}};
+  as.altitude_length_bottom_m = 500, as.altitude_length_top_m = 500;
+  as.phase = Phase::water, as.water_content_g_m3 = 0.29, as.effective_radius_um = 7.6;  // "Maritime stratus": D 15.2 um
+
+  auto& ci = (*this)[CloudType::cirrus];
+  ci.shell_bottom_m = 6500, ci.shell_top_m = 10000, ci.wind_altitude_m = 6000;
+  ci.fractals = {{{0.50, 120e3, 12}, {0.30, 10e3, 12}, {0.20, 60e3, 12}}};
+  ci.altitude_length_bottom_m = 600, ci.altitude_length_top_m = 600;
+  ci.phase = Phase::ice, ci.water_content_g_m3 = 0.01, ci.effective_radius_um = 45;  // D 90 um, 0.01 g/m3
+}
+
+CloudModelParams CloudModelParams::from(const ParamDict& dict) {
+  CloudModelParams p;
+  const ParamDict t = dict.table("textures");
+  p.texture_size = t.get("size", p.texture_size);
+  const ParamDict d = dict.table("displacement");
+  p.displacement_cube_size = d.get("cube_size", p.displacement_cube_size);
+  p.displacement_step_s = d.get("step_s", p.displacement_step_s);
+  p.mask_cube_size = dict.table("masks_cube").get("size", p.mask_cube_size);
+  const ParamDict clouds = dict.table("clouds");
+  static const char* fractal_names[] = {"coarse", "fine", "worley"};
+  for (int k = 0; k < weather::cloud_type_count; ++k) {
+    const ParamDict c = clouds.table(weather::name(static_cast<CloudType>(k)));
+    auto& q = p.types[static_cast<std::size_t>(k)];
+    q.shell_bottom_m = c.get("shell_bottom_m", q.shell_bottom_m);
+    q.shell_top_m = c.get("shell_top_m", q.shell_top_m);
+    q.wind_altitude_m = c.get("wind_altitude_m", q.wind_altitude_m);
+    for (int i = 0; i < 3; ++i) {
+      const ParamDict f = c.table(fractal_names[i]);
+      auto& term = q.fractals[static_cast<std::size_t>(i)];
+      term.weight = f.get("weight", term.weight);
+      term.length_scale_m = f.get("length_scale_m", term.length_scale_m);
+      term.displace_hours = f.get("displace_hours", term.displace_hours);
+      if (!(term.length_scale_m > 0))
+        throw ConfigError("must be > 0", {.file = dict.source(), .key = fmt::format("clouds.{}.{}.length_scale_m", weather::name(static_cast<CloudType>(k)), fractal_names[i])});
+    }
+    q.calibrate = c.get("calibrate", q.calibrate);
+    q.bias = c.get("bias", q.bias);
+    q.mask_weight = c.get("mask_weight", q.mask_weight);
+    q.mask_displace_hours = c.get("mask_displace_hours", q.mask_displace_hours);
+    q.threshold = c.get("threshold", q.threshold);
+    q.altitude_scale = c.get("altitude_scale", q.altitude_scale);
+    q.altitude_length_bottom_m = c.get("altitude_length_bottom_m", q.altitude_length_bottom_m);
+    q.altitude_length_top_m = c.get("altitude_length_top_m", q.altitude_length_top_m);
+    q.min_mask = c.get("min_mask", q.min_mask);
+    q.water_content_g_m3 = c.get("water_content_g_m3", q.water_content_g_m3);
+    q.effective_radius_um = c.get("effective_radius_um", q.effective_radius_um);
+    const std::string phase = c.get("phase", q.phase == optics::Phase::water ? "water" : "ice");
+    if (phase != "water" && phase != "ice")
+      throw ConfigError("expected \"water\" or \"ice\"", {.file = dict.source(), .key = fmt::format("clouds.{}.phase", weather::name(static_cast<CloudType>(k)))});
+    q.phase = phase == "water" ? optics::Phase::water : optics::Phase::ice;
+    if (!(q.shell_top_m > q.shell_bottom_m))
+      throw ConfigError("shell_top_m must exceed shell_bottom_m", {.file = dict.source(), .key = fmt::format("clouds.{}", weather::name(static_cast<CloudType>(k)))});
+  }
+  return p;
+}
+
+CubeMap<float> mask_cube(const weather::WeatherMasks& masks, CloudType type, int n) {
+  CubeMap<float> c(n);
+  const auto& m = masks[type];
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int f = 0; f < 6; ++f)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const earth::Geodetic g = earth::geodetic(c.texel_direction(f, i, j) * earth::radius_m);
+        const float v = weather::sample_bilinear(masks.grid, m, g.lat_deg, g.lon_deg);
+        c.texel(f, i, j) = std::isnan(v) ? 0.0f : v;
+      }
+  return c;
+}
+
+CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,
+                       std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps)
+    : type_(type), p_(params), tex_(std::move(textures)), mask_(std::move(mask)), maps_(std::move(maps)) {
+  if (maps_.size() != 4) throw ValueError("a cloud shell needs 4 displacement maps (mask + 3 fractals)");
+  r_bottom_ = earth::radius_m + p_.shell_bottom_m;
+  r_top_ = earth::radius_m + p_.shell_top_m;
+  fractal_max_ = 0;
+  for (const auto& f : p_.fractals) fractal_max_ += std::max(0.0, f.weight);
+  bias_ = p_.bias;
+  mask_weight_ = p_.mask_weight;
+  if (p_.calibrate) {
+    // Quantiles of the fractal sum F over 32768 counter-hashed points, each texture sampled at
+    // its own independent position (the terms use unrelated length scales).
+    constexpr int n = 32768;
+    std::vector<double> f(n);
+    for (int s = 0; s < n; ++s) {
+      double sum = 0;
+      for (int i = 0; i < 3; ++i) {
+        const auto u = static_cast<std::uint64_t>(s);
+        sum += p_.fractals[static_cast<std::size_t>(i)].weight *
+               (*tex_)[i].sample(static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 0)),
+                                 static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 1)),
+                                 static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 2)));
+      }
+      f[static_cast<std::size_t>(s)] = sum;
+    }
+    std::sort(f.begin(), f.end());
+    const double q05 = f[n / 20], q95 = f[n - n / 20];
+    mask_weight_ = std::max(1e-6, (q95 - q05) / 0.9);
+    bias_ = p_.threshold - q95 - 0.05 * mask_weight_;
+  }
+}
+
+double CloudShell::mask_at(const earth::Vec3& p) const {
+  const earth::Vec3 d = glm::normalize(p);
+  return mask_->sample(maps_[0].upwind(d));
+}
+
+double CloudShell::value(const earth::Vec3& p) const {
+  const double r = glm::length(p);
+  const earth::Vec3 d = p / r;
+  const double alt = r - earth::radius_m;
+  const double barrier = p_.altitude_scale * (std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m) +
+                                              std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m));
+  const double mask = mask_->sample(maps_[0].upwind(d));
+  const double base = bias_ + mask_weight_ * mask - barrier;
+  if (mask < p_.min_mask) return std::min(base + fractal_max_, p_.threshold) - 1.0;
+  if (base + fractal_max_ < p_.threshold) return base + fractal_max_;  // cannot reach the level set
+  double v = base;
+  earth::Vec3 di = d;
+  double last_hours = -1;
+  for (int i = 0; i < 3; ++i) {
+    const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+    if (term.weight == 0) continue;
+    const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
+    if (map.hours() != last_hours) {
+      di = map.upwind(d);
+      last_hours = map.hours();
+    }
+    // Texture coordinates in tiles; reduce in double before the float lookup.
+    const earth::Vec3 q = di * (r / term.length_scale_m);
+    const earth::Vec3 fq = q - glm::floor(q);
+    v += term.weight * (*tex_)[i].sample(static_cast<float>(fq.x), static_cast<float>(fq.y), static_cast<float>(fq.z));
+  }
+  return v;
+}
+
+earth::Vec3 CloudShell::gradient(const earth::Vec3& p, double h) const {
+  earth::Vec3 g;
+  for (int a = 0; a < 3; ++a) {
+    earth::Vec3 e{0, 0, 0};
+    e[a] = h;
+    g[a] = (value(p + e) - value(p - e)) / (2 * h);
+  }
+  return g;
+}
+
+double CloudShell::feature_size_m() const {
+  return p_.fractals[1].length_scale_m / tex_->fine.size();
+}
+
+CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
+                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed) {
+  CloudScene scene;
+  spdlog::info("baking fractal textures {}^3 (seed {})", params.texture_size, seed);
+  scene.textures = std::make_shared<const FractalTextures>(FractalTextures::bake(seed, params.texture_size));
+  std::map<double, int> wind_index;
+  std::map<std::pair<int, double>, DisplacementMap> map_cache;
+  for (CloudType t : types) {
+    const CloudTypeParams& p = params[t];
+    auto [it, inserted] = wind_index.try_emplace(p.wind_altitude_m, static_cast<int>(scene.winds.size()));
+    if (inserted) {
+      spdlog::info("wind field at {:g} m", p.wind_altitude_m);
+      scene.winds.push_back(make_wind_field(weather, p.wind_altitude_m, params.displacement_cube_size));
+    }
+    const int w = it->second;
+    auto map_for = [&](double hours) {
+      auto key = std::pair{w, hours};
+      auto m = map_cache.find(key);
+      if (m == map_cache.end())
+        m = map_cache.emplace(key, DisplacementMap::build(scene.winds[static_cast<std::size_t>(w)], hours,
+                                                          params.displacement_cube_size, params.displacement_step_s))
+                .first;
+      return m->second;
+    };
+    std::vector<DisplacementMap> maps{map_for(p.mask_displace_hours)};
+    for (const auto& f : p.fractals) maps.push_back(map_for(f.displace_hours));
+    auto cube = std::make_shared<const CubeMap<float>>(mask_cube(masks, t, params.mask_cube_size));
+    scene.shells.emplace_back(t, p, scene.textures, std::move(cube), std::move(maps));
+    scene.wind_of_shell.push_back(w);
+  }
+  return scene;
+}
+
+void advance_scene(CloudScene& scene, double hours, const CloudModelParams& params) {
+  for (std::size_t s = 0; s < scene.shells.size(); ++s) {
+    const WindField& wind = scene.winds[static_cast<std::size_t>(scene.wind_of_shell[s])];
+    std::vector<DisplacementMap> maps;
+    for (std::size_t i = 0; i < scene.shells[s].maps().size(); ++i) {
+      const DisplacementMap& m = scene.shells[s].maps()[i];
+      // Reuse the map just advanced when two terms share the same displacement.
+      if (i > 0 && m.hours() == scene.shells[s].maps()[i - 1].hours()) {
+        maps.push_back(maps.back());
+        continue;
+      }
+      maps.push_back(m.advanced(wind, hours, params.displacement_step_s, params.displacement_cube_size));
+    }
+    scene.shells[s].set_maps(std::move(maps));
+  }
+}
+
+}  // namespace nephos::clouds

@@ -1,0 +1,136 @@
+#pragma once
+// The cloud function of equation (1) (seed 000, section 2.1) for one cloud type inside its
+// shell over the Earth:
+//
+//   CF(x) = sum_i m_i FF_i(x_i / LS_i) + b + w * mask(x_m)
+//           - A exp(-(alt - alt_bottom) / LS_bottom) - A exp((alt - alt_top) / LS_top)
+//
+// FF_i are the baked fractal textures (coarse Perlin, fine Perlin, inverted Worley), x_i and
+// x_m the upwind points of x from the displacement maps (same altitude), mask the weather mask
+// of the type. Cloud is where CF > threshold. The seed's single altitude length scale is split
+// into a bottom and a top one (equal by default) so cumulus can have flat bases.
+//
+// Calibration (default on): b and w are derived from the fractal statistics so that a mask
+// value m gives close to a fraction m of cloudy sky: the level set crosses the 5 % and 95 %
+// quantiles of the fractal sum at m = 0.05 and 0.95. This keeps the masks' meaning (cloud
+// fraction, validated against GFS) whatever the fractal weights.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nephos/clouds/cube_map.hpp"
+#include "nephos/clouds/displacement.hpp"
+#include "nephos/core/config.hpp"
+#include "nephos/noise/fractal_texture.hpp"
+#include "nephos/optics/optics.hpp"
+#include "nephos/weather/masks.hpp"
+
+namespace nephos::clouds {
+
+using weather::CloudType;
+
+/// The three baked textures every cloud type draws from, one set per seed.
+struct FractalTextures {
+  noise::Texture3D coarse, fine, worley;
+  static FractalTextures bake(std::uint64_t seed, int n);
+  const noise::Texture3D& operator[](int i) const { return i == 0 ? coarse : i == 1 ? fine : worley; }
+};
+
+struct FractalTerm {
+  double weight = 0;           ///< m_i
+  double length_scale_m = 1;   ///< LS_i: metres per texture tile
+  double displace_hours = 0;   ///< hours of upwind displacement for this fractal
+};
+
+struct CloudTypeParams {
+  double shell_bottom_m = 0, shell_top_m = 0;  ///< Table 1 shell range [m above MSL]
+  double wind_altitude_m = 0;                  ///< altitude of the displacing wind (Table 1 sampling altitude)
+  std::array<FractalTerm, 3> fractals;         ///< coarse Perlin, fine Perlin, Worley
+  double bias = 0;                             ///< b (ignored when calibrated)
+  double mask_weight = 1;                      ///< w (ignored when calibrated)
+  bool calibrate = true;
+  double mask_displace_hours = 0;              ///< the mask is valid-time weather: 0 by default
+  double threshold = 0.5;                      ///< level-set value
+  double altitude_scale = 1.0;                 ///< A
+  double altitude_length_bottom_m = 300, altitude_length_top_m = 300;
+  double min_mask = 0.02;                      ///< below this mask value the sky is clear (skipping)
+  // Optics (section 2.3)
+  optics::Phase phase = optics::Phase::water;
+  double water_content_g_m3 = 0.3;
+  double effective_radius_um = 10;
+};
+
+struct CloudModelParams {
+  int texture_size = 256;
+  noise::FractalSpec coarse{noise::FractalKind::perlin, 4, 5, 0.5, false};
+  noise::FractalSpec fine{noise::FractalKind::perlin, 8, 4, 0.55, false};
+  noise::FractalSpec worley{noise::FractalKind::worley, 4, 3, 0.45, true};
+  int displacement_cube_size = 128;
+  double displacement_step_s = 1800;
+  int mask_cube_size = 512;
+  std::array<CloudTypeParams, weather::cloud_type_count> types;
+
+  CloudModelParams();  ///< defaults: docs/render.md
+  /// Reads [textures], [displacement] and [clouds.<type>] (unknown keys: error on check_unused()).
+  static CloudModelParams from(const ParamDict& dict);
+  const CloudTypeParams& operator[](CloudType t) const { return types[static_cast<std::size_t>(t)]; }
+  CloudTypeParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
+};
+
+/// A weather mask resampled onto a cube map (bilinear from the lat-lon grid).
+CubeMap<float> mask_cube(const weather::WeatherMasks& masks, CloudType type, int n);
+
+/// One cloud type ready to evaluate: textures, displacement maps, mask, calibrated constants.
+class CloudShell {
+ public:
+  CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,
+             std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps);
+
+  CloudType type() const { return type_; }
+  const CloudTypeParams& params() const { return p_; }
+  double radius_bottom_m() const { return r_bottom_; }
+  double radius_top_m() const { return r_top_; }
+  double threshold() const { return p_.threshold; }
+  double bias() const { return bias_; }
+  double mask_weight() const { return mask_weight_; }
+
+  /// CF at Earth-fixed position p [m]. When the texture-free upper bound already falls below
+  /// the threshold the textures are not sampled and that bound is returned (still < threshold).
+  double value(const earth::Vec3& p) const;
+  /// The mask value seen at p (after the mask's displacement).
+  double mask_at(const earth::Vec3& p) const;
+  /// Gradient of CF by central differences with step h [m].
+  earth::Vec3 gradient(const earth::Vec3& p, double h) const;
+  /// The finest feature size [m]: the fine fractal's voxel.
+  double feature_size_m() const;
+  /// Replaces the displacement maps (animation).
+  void set_maps(std::vector<DisplacementMap> maps) { maps_ = std::move(maps); }
+  const std::vector<DisplacementMap>& maps() const { return maps_; }
+
+ private:
+  CloudType type_;
+  CloudTypeParams p_;
+  std::shared_ptr<const FractalTextures> tex_;
+  std::shared_ptr<const CubeMap<float>> mask_;
+  std::vector<DisplacementMap> maps_;  ///< [0] mask, [1..3] fractals
+  double r_bottom_, r_top_;
+  double bias_, mask_weight_, fractal_max_;
+};
+
+/// Everything needed to render clouds of several types from one weather state.
+struct CloudScene {
+  std::shared_ptr<const FractalTextures> textures;
+  std::vector<CloudShell> shells;
+  std::vector<WindField> winds;   ///< one per distinct wind altitude
+  std::vector<int> wind_of_shell; ///< index into winds for each shell
+};
+
+/// Builds textures, masks' cube maps, winds and displacement maps for the requested types.
+CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
+                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed);
+/// Advances every shell's displacement maps by `hours` (frame-to-frame propagation).
+void advance_scene(CloudScene& scene, double hours, const CloudModelParams& params);
+
+}  // namespace nephos::clouds

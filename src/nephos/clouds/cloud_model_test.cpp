@@ -1,0 +1,86 @@
+#include "nephos/clouds/cloud_model.hpp"
+
+#include <gtest/gtest.h>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
+
+namespace nephos::clouds {
+namespace {
+
+std::shared_ptr<const FractalTextures> small_textures() {
+  static auto t = std::make_shared<const FractalTextures>(FractalTextures{
+      noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 1, 32),
+      noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 2, 32),
+      noise::bake({noise::FractalKind::worley, 4, 2, 0.5, true}, 3, 32)});
+  return t;
+}
+
+CloudShell shell_with_mask(float mask, CloudTypeParams p = CloudModelParams()[CloudType::low_stratus]) {
+  auto cube = std::make_shared<CubeMap<float>>(4);
+  for (auto& v : cube->data()) v = mask;
+  return CloudShell(CloudType::low_stratus, p, small_textures(), cube, std::vector<DisplacementMap>(4));
+}
+
+// Fraction of cloudy points (CF > threshold) on the mid-shell sphere.
+double cloudy_fraction(const CloudShell& s) {
+  const double r = earth::radius_m + 0.5 * (s.params().shell_bottom_m + s.params().shell_top_m);
+  int cloudy = 0;
+  constexpr int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const double z = 2 * uniform01(5, static_cast<std::uint64_t>(i), 0) - 1, phi = 2 * M_PI * uniform01(5, static_cast<std::uint64_t>(i), 1);
+    const earth::Vec3 d{std::sqrt(1 - z * z) * std::cos(phi), std::sqrt(1 - z * z) * std::sin(phi), z};
+    cloudy += s.value(d * r) > s.threshold();
+  }
+  return static_cast<double>(cloudy) / n;
+}
+
+}  // namespace
+
+TEST(CloudShell, CalibratedMaskMeansCloudFraction) {
+  // By construction the level set crosses the 5 % / 95 % quantiles of the fractal sum at mask
+  // 0.05 / 0.95; mid-shell the barriers are ~2 exp(-5.8) = 0.006 and barely matter. Sampling
+  // 20,000 points: binomial error 0.0035; the texture tiles repeat, so allow 0.03.
+  EXPECT_NEAR(cloudy_fraction(shell_with_mask(0.05f)), 0.05, 0.03);
+  EXPECT_NEAR(cloudy_fraction(shell_with_mask(0.95f)), 0.95, 0.03);
+  const double mid = cloudy_fraction(shell_with_mask(0.5f));
+  EXPECT_GT(mid, 0.3);
+  EXPECT_LT(mid, 0.7);
+  EXPECT_EQ(cloudy_fraction(shell_with_mask(0.0f)), 0.0);  // below min_mask: clear sky
+}
+
+TEST(CloudShell, AltitudeBarriersSuppressCloudAtTheShellEdges) {
+  const CloudShell s = shell_with_mask(1.0f);
+  const earth::Vec3 d = earth::unit_from_latlon(12, 34);
+  const double bottom = s.params().shell_bottom_m, top = s.params().shell_top_m;
+  // At the shell bottom the barrier subtracts A (= 1) plus a negligible top term: CF drops by
+  // about 1 relative to mid-shell. The fractal part differs between the two points, by at most
+  // the sum of weights (1.0); so the bottom value is below the mid value + fractal range - A.
+  EXPECT_LT(s.value(d * (earth::radius_m + bottom)), s.threshold());
+  EXPECT_LT(s.value(d * (earth::radius_m + top)), s.threshold());
+  EXPECT_LT(s.value(d * (earth::radius_m + bottom - 500)), s.threshold());
+}
+
+TEST(CloudShell, DeterministicPureFunctionOfPosition) {
+  const CloudShell a = shell_with_mask(0.6f), b = shell_with_mask(0.6f);
+  const earth::Vec3 p = earth::unit_from_latlon(-33, 151) * (earth::radius_m + 2000);
+  EXPECT_EQ(a.value(p), b.value(p));
+}
+
+TEST(CloudModelParams, TomlOverridesAndRejectsUnknownKeys) {
+  const auto d = ParamDict::from_string(
+      "[clouds.cirrus]\nshell_top_m = 12000.0\n[clouds.cirrus.fine]\nweight = 0.4\n[clouds.low_cumulus]\ntypo = 1\n", "c.toml");
+  const CloudModelParams p = CloudModelParams::from(d);
+  EXPECT_EQ(p[CloudType::cirrus].shell_top_m, 12000);
+  EXPECT_EQ(p[CloudType::cirrus].fractals[1].weight, 0.4);
+  EXPECT_THROW(d.check_unused(), ConfigError);
+  EXPECT_THROW(CloudModelParams::from(ParamDict::from_string("[clouds.cirrus]\nphase = 'plasma'\n")), ConfigError);
+  // Table 1 shells are the defaults.
+  const CloudModelParams def;
+  EXPECT_EQ(def[CloudType::low_stratus].shell_bottom_m, 500);
+  EXPECT_EQ(def[CloudType::low_cumulus].shell_top_m, 6000);
+  EXPECT_EQ(def[CloudType::altostratus].shell_bottom_m, 6000);
+  EXPECT_EQ(def[CloudType::cirrus].shell_bottom_m, 6500);
+}
+
+}  // namespace nephos::clouds
