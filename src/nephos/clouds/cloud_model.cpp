@@ -11,10 +11,14 @@
 
 namespace nephos::clouds {
 
-FractalTextures FractalTextures::bake(std::uint64_t seed, int n) {
-  const CloudModelParams defaults;
-  return {noise::bake(defaults.coarse, hash(seed, 1), n), noise::bake(defaults.fine, hash(seed, 2), n),
-          noise::bake(defaults.worley, hash(seed, 3), n)};
+FractalTextures FractalTextures::bake(const CloudModelParams& params, std::uint64_t seed) {
+  const int n = params.texture_size;
+  auto fit = [n](noise::FractalSpec s) {
+    while (s.octaves > 1 && (s.base_cells << (s.octaves - 1)) > n / 2) --s.octaves;
+    return s;
+  };
+  return {noise::bake(fit(params.coarse), hash(seed, 1), n), noise::bake(fit(params.fine), hash(seed, 2), n),
+          noise::bake(fit(params.worley), hash(seed, 3), n)};
 }
 
 CloudModelParams::CloudModelParams() {
@@ -192,7 +196,7 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
                        const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed) {
   CloudScene scene;
   spdlog::info("baking fractal textures {}^3 (seed {})", params.texture_size, seed);
-  scene.textures = std::make_shared<const FractalTextures>(FractalTextures::bake(seed, params.texture_size));
+  scene.textures = std::make_shared<const FractalTextures>(FractalTextures::bake(params, seed));
   std::map<double, int> wind_index;
   std::map<std::pair<int, double>, DisplacementMap> map_cache;
   for (CloudType t : types) {

@@ -34,7 +34,9 @@ using weather::CloudType;
 /// The three baked textures every cloud type draws from, one set per seed.
 struct FractalTextures {
   noise::Texture3D coarse, fine, worley;
-  static FractalTextures bake(std::uint64_t seed, int n);
+  /// Bakes the three fractals of `params` at params.texture_size. Octaves finer than half the
+  /// texture resolution (which the voxels could not resolve) are dropped.
+  static FractalTextures bake(const struct CloudModelParams& params, std::uint64_t seed);
   const noise::Texture3D& operator[](int i) const { return i == 0 ? coarse : i == 1 ? fine : worley; }
 };
 

@@ -1,0 +1,280 @@
+#include "nephos/render/renderer.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/progress.hpp"
+
+namespace nephos::render {
+namespace {
+constexpr float nanf = std::numeric_limits<float>::quiet_NaN();
+
+// The part of a ray inside a shell: up to two intervals (in front of and behind the inner
+// sphere when a ray grazes below the shell bottom without reaching the ground).
+struct Path {
+  double a0 = 0, a1 = 0, b0 = 0, b1 = 0;  // [a0, a1] then [b0, b1] (b empty if b1 <= b0)
+  double length() const { return (a1 - a0) + std::max(0.0, b1 - b0); }
+  double t_at(double s) const { return s <= a1 - a0 ? a0 + s : b0 + (s - (a1 - a0)); }
+};
+
+bool shell_path(double r_bottom, double r_top, const earth::Vec3& o, const earth::Vec3& d, double t_max, Path& p) {
+  const auto outer = earth::ray_sphere(o, d, r_top);
+  if (!outer || outer->t1 <= 0) return false;
+  const double t0 = std::max(outer->t0, 0.0), t1 = std::min(outer->t1, t_max);
+  if (t1 <= t0) return false;
+  p = {t0, t1, 0, 0};
+  if (const auto inner = earth::ray_sphere(o, d, r_bottom); inner && inner->t1 > t0) {
+    if (inner->t0 > t0) {  // enters the inner sphere ahead: cut there, resume where it leaves
+      p.a1 = std::min(inner->t0, t1);
+      p.b0 = inner->t1;
+      p.b1 = t1;
+    } else {  // starts inside the inner sphere (camera below the shell): from its exit
+      p.a0 = inner->t1;
+      if (p.a0 >= t1) return false;
+    }
+  }
+  return p.length() > 0;
+}
+
+// Length of [0, 1] where the linear interpolant of (va, vb) exceeds 0.
+double inside_fraction(double va, double vb) {
+  if (va > 0 && vb > 0) return 1;
+  if (va <= 0 && vb <= 0) return 0;
+  const double x = va / (va - vb);  // crossing
+  return va > 0 ? x : 1 - x;
+}
+
+// Band-mean Planck radiance as a table over temperature for a fast exact-enough inverse.
+struct PlanckTable {
+  static constexpr double t_lo = 100, t_hi = 400, dt = 0.01;
+  std::vector<double> radiance;
+  explicit PlanckTable(const optics::Band& b) {
+    for (double t = t_lo; t <= t_hi + 1e-9; t += dt) radiance.push_back(optics::band_planck(b, t));
+  }
+  double forward(double t) const {
+    const double x = std::clamp((t - t_lo) / dt, 0.0, static_cast<double>(radiance.size() - 2));
+    const auto i = static_cast<std::size_t>(x);
+    return radiance[i] + (x - static_cast<double>(i)) * (radiance[i + 1] - radiance[i]);
+  }
+  double inverse(double l) const {  // linear between 0.01 K nodes: error < 1e-5 K
+    if (!(l > radiance.front())) return t_lo;
+    if (l >= radiance.back()) return t_hi;
+    const auto it = std::upper_bound(radiance.begin(), radiance.end(), l);
+    const auto i = static_cast<std::size_t>(it - radiance.begin()) - 1;
+    return t_lo + dt * (static_cast<double>(i) + (l - radiance[i]) / (radiance[i + 1] - radiance[i]));
+  }
+};
+
+struct Layer {  // one cloud type's contribution to one pixel
+  float t = std::numeric_limits<float>::infinity();
+  float altitude = 0, tau_vis = 0;
+  std::array<float, 3> radiance{}, transmittance{1, 1, 1};
+};
+
+}  // namespace
+
+ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
+                     int steps, int bisection_iterations) {
+  ShellHit hit;
+  Path path;
+  if (!shell_path(shell.radius_bottom_m(), shell.radius_top_m(), o, d, t_max, path)) return hit;
+  const double len = path.length(), ds = len / steps, thr = shell.threshold();
+  double s_prev = 0, v_prev = shell.value(o + path.t_at(0) * d) - thr;
+  double s_hit = -1;
+  int k = 1;
+  if (v_prev > 0) {
+    s_hit = 0;
+  } else {
+    for (; k <= steps; ++k) {
+      const double s = k * ds, v = shell.value(o + path.t_at(s) * d) - thr;
+      if (v > 0) {  // refine the first crossing in (s_prev, s] by bisection
+        double lo = s_prev, hi = s;
+        for (int it = 0; it < bisection_iterations; ++it) {
+          const double mid = 0.5 * (lo + hi);
+          (shell.value(o + path.t_at(mid) * d) - thr > 0 ? hi : lo) = mid;
+        }
+        s_hit = hi;
+        // Depth inside this step, from the surface to the step's end.
+        hit.depth_m = s - s_hit;
+        s_prev = s;
+        v_prev = v;
+        ++k;
+        break;
+      }
+      s_prev = s;
+      v_prev = v;
+    }
+    if (s_hit < 0) return hit;
+  }
+  // Depth through the rest of the shell: linear interpolation of CF between samples.
+  for (; k <= steps; ++k) {
+    const double s = k * ds, v = shell.value(o + path.t_at(s) * d) - thr;
+    hit.depth_m += ds * inside_fraction(v_prev, v);
+    v_prev = v;
+  }
+  hit.hit = true;
+  hit.t = path.t_at(s_hit);
+  hit.position = o + hit.t * d;
+  const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
+  const earth::Vec3 g = shell.gradient(hit.position, h);
+  const double gl = glm::length(g);
+  hit.normal = gl > 0 ? -g / gl : -d;
+  return hit;
+}
+
+RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
+                   const RenderParams& params, const weather::WeatherGrid* weather) {
+  const int w = sensor.width, h = sensor.height;
+  const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  const std::size_t nb = params.bands.size();
+  if (nb > 3) throw ValueError("at most 3 bands per render", {.key = "--bands"});
+  std::vector<const optics::Band*> bands;
+  std::vector<PlanckTable> planck;
+  for (const auto& name : params.bands) {
+    bands.push_back(&optics::band(name));
+    planck.emplace_back(*bands.back());
+  }
+  const earth::Vec3 sun_dir = sun.direction_ecef;
+  const double sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
+  const double f_ind = params.indirect_fraction;
+
+  RenderImage img;
+  img.width = w;
+  img.height = h;
+  img.bands = params.bands;
+  img.radiance.assign(nb, std::vector<float>(npx, 0.0f));
+  img.brightness_temperature.assign(nb, {});
+  img.cloud_top_altitude_m.assign(npx, nanf);
+  img.cloud_optical_depth.assign(npx, 0.0f);
+  img.cloud_type.assign(npx, -1);
+  img.latitude_deg.assign(npx, nanf);
+  img.longitude_deg.assign(npx, nanf);
+
+  // Distance to the Earth's surface per pixel (infinity for space).
+  std::vector<float> t_earth(npx);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
+      const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
+      t_earth[static_cast<std::size_t>(y) * w + x] =
+          e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
+    }
+
+  // One pass per cloud type, each timed; layers kept for compositing.
+  const std::size_t ns = scene.shells.size();
+  std::vector<Layer> layers(npx * ns);
+  Progress progress("render", static_cast<std::size_t>(h) * ns);
+  for (std::size_t si = 0; si < ns; ++si) {
+    const clouds::CloudShell& shell = scene.shells[si];
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<optics::OpticalProperties> props;
+    for (const auto* b : bands)
+      props.push_back(optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
+                                           shell.params().effective_radius_um, *b));
+    const optics::OpticalProperties vis_props = optics::cloud_optics(
+        shell.params().phase, shell.params().water_content_g_m3, shell.params().effective_radius_um, optics::band("vis"));
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const std::size_t px = static_cast<std::size_t>(y) * w + x;
+        const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
+        const ShellHit hit = march_shell(shell, sensor.position, d, t_earth[px], params.steps, params.bisection_iterations);
+        if (!hit.hit) continue;
+        Layer& L = layers[px * ns + si];
+        L.t = static_cast<float>(hit.t);
+        const double r = glm::length(hit.position);
+        const earth::Vec3 up = hit.position / r;
+        L.altitude = static_cast<float>(r - earth::radius_m);
+        L.tau_vis = static_cast<float>(vis_props.extinction_per_m * hit.depth_m);
+        const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
+        const double mu0 = glm::dot(hit.normal, sun_dir);
+        const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
+        for (std::size_t b = 0; b < nb; ++b) {
+          const double tau = props[b].extinction_per_m * hit.depth_m;
+          const optics::SlabResult slab = optics::two_stream_slab(tau, props[b].single_scattering_albedo);
+          const double e_sun = bands[b]->solar_irradiance * sun_scale;
+          double rad = 0;
+          if (mu_sun_local > 0) {
+            rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
+            rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
+          }
+          const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
+          rad += emissivity * planck[b].forward(t_cloud);  // thermal emission
+          L.radiance[b] = static_cast<float>(rad);
+          L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
+        }
+      }
+      progress.advance();
+    }
+    img.seconds_per_type.emplace_back(weather::name(shell.type()),
+                                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+
+  // Background and front-to-back compositing.
+  // Thermal background: the temperature of the weather's lowest level (1000 hPa for GFS).
+  std::vector<float> surface_t;
+  if (weather && weather->has(weather::Field::temperature, 0))
+    surface_t.assign(weather->level_data(weather::Field::temperature, 0),
+                     weather->level_data(weather::Field::temperature, 0) + weather->grid().size());
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    std::vector<std::size_t> order(ns);
+    for (int x = 0; x < w; ++x) {
+      const std::size_t px = static_cast<std::size_t>(y) * w + x;
+      const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
+      std::array<double, 3> bg{0, 0, 0};
+      if (std::isfinite(t_earth[px])) {
+        const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[px]) * d;
+        const earth::Geodetic g = earth::geodetic(q);
+        img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+        img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+        const double mu_s = std::max(0.0, glm::dot(sun_dir, q / glm::length(q)));
+        double t_surf = params.surface_temperature_k;
+        if (!surface_t.empty()) {
+          const float v = weather::sample_bilinear(weather->grid(), surface_t, g.lat_deg, g.lon_deg);
+          if (!std::isnan(v)) t_surf = v;
+        }
+        for (std::size_t b = 0; b < nb; ++b)
+          bg[b] = params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b].forward(t_surf);
+      }
+      const Layer* pl = &layers[px * ns];
+      for (std::size_t s = 0; s < ns; ++s) order[s] = s;
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
+      std::array<double, 3> rad{0, 0, 0}, trans{1, 1, 1};
+      float tau = 0;
+      for (std::size_t s = 0; s < ns; ++s) {
+        const Layer& L = pl[order[s]];
+        if (!std::isfinite(L.t)) break;
+        if (s == 0) {
+          img.cloud_top_altitude_m[px] = L.altitude;
+          img.cloud_type[px] = static_cast<std::int8_t>(scene.shells[order[s]].type());
+          const earth::Geodetic g = earth::geodetic(sensor.position + static_cast<double>(L.t) * d);
+          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+        }
+        tau += L.tau_vis;
+        for (std::size_t b = 0; b < nb; ++b) {
+          rad[b] += trans[b] * L.radiance[b];
+          trans[b] *= L.transmittance[b];
+        }
+      }
+      img.cloud_optical_depth[px] = tau;
+      for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
+    }
+  }
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (!bands[b]->thermal) continue;
+    img.brightness_temperature[b].resize(npx);
+#pragma omp parallel for schedule(static)
+    for (std::size_t px = 0; px < npx; ++px)
+      img.brightness_temperature[b][px] = static_cast<float>(planck[b].inverse(img.radiance[b][px]));
+  }
+  return img;
+}
+
+}  // namespace nephos::render

@@ -1,0 +1,59 @@
+#pragma once
+// The global fractal-cloud renderer (seed 000, section 2 and Figure 1): for every pixel, Earth
+// occlusion, intersection with each cloud type's shell, a ray march with N steps, the first
+// level-set crossing refined by bisection, the surface normal from the cloud-function
+// gradient, and the cloud depth integrated along the rest of the shell; then the section 2.3
+// radiometry per band and front-to-back compositing of the cloud types.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "nephos/clouds/cloud_model.hpp"
+#include "nephos/core/time.hpp"
+#include "nephos/earth/sun.hpp"
+#include "nephos/optics/optics.hpp"
+#include "nephos/render/sensor.hpp"
+#include "nephos/weather/weather_grid.hpp"
+
+namespace nephos::render {
+
+struct RenderParams {
+  int steps = 25;                     ///< ray-marching steps through a shell (--steps)
+  int bisection_iterations = 12;      ///< refinement of the first crossing (step / 4096)
+  double indirect_fraction = 0.3;     ///< share of scattered sunlight re-emitted diffusely by all facets
+  double surface_albedo = 0.06;       ///< Lambertian albedo of the ground in solar bands (dark ocean)
+  double surface_temperature_k = 288.15;  ///< used where the weather gives none
+  std::vector<std::string> bands{"vis", "nir", "lwir"};
+};
+
+/// Per-pixel results, row-major from the top-left pixel.
+struct RenderImage {
+  int width = 0, height = 0;
+  std::vector<std::string> bands;
+  std::vector<std::vector<float>> radiance;                ///< per band [W m^-2 sr^-1 um^-1]
+  std::vector<std::vector<float>> brightness_temperature;  ///< per band [K]; empty for solar bands
+  std::vector<float> cloud_top_altitude_m;  ///< nearest cloud surface; NaN where none
+  std::vector<float> cloud_optical_depth;   ///< visible optical depth along the line of sight, all types
+  std::vector<std::int8_t> cloud_type;      ///< nearest type (0..3), -1 none
+  std::vector<float> latitude_deg, longitude_deg;  ///< nearest cloud or Earth point; NaN for space
+  std::vector<std::pair<std::string, double>> seconds_per_type;
+};
+
+/// What one ray finds in one shell.
+struct ShellHit {
+  bool hit = false;
+  double t = 0;                  ///< distance to the first surface [m]
+  earth::Vec3 position, normal;  ///< outward unit normal
+  double depth_m = 0;            ///< cloud depth along the line of sight after the surface
+};
+
+/// Marches one shell along o + t d up to t_max (the Earth's surface or infinity).
+ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
+                     int steps, int bisection_iterations);
+
+/// Renders all shells of `scene` from `sensor`. `weather` (optional) gives the surface
+/// temperature for the thermal background.
+RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
+                   const RenderParams& params, const weather::WeatherGrid* weather = nullptr);
+
+}  // namespace nephos::render

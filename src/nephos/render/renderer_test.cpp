@@ -1,0 +1,180 @@
+#include "nephos/render/renderer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include "nephos/core/parallel.hpp"
+#include "nephos/weather/reader.hpp"
+
+namespace nephos::render {
+namespace {
+
+using clouds::CloudShell;
+using clouds::CloudTypeParams;
+
+std::shared_ptr<const clouds::FractalTextures> tiny_textures() {
+  clouds::CloudModelParams p;
+  p.texture_size = 32;
+  static auto t = std::make_shared<const clouds::FractalTextures>(clouds::FractalTextures::bake(p, 7));
+  return t;
+}
+
+// A shell whose cloud function depends on altitude only: no fractals, mask 1, bias b:
+//   CF = b + 1 - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
+CloudShell layered_shell(double bias, double a_scale = 1.0) {
+  CloudTypeParams p;
+  p.shell_bottom_m = 1000;
+  p.shell_top_m = 3000;
+  p.fractals = {};
+  p.calibrate = false;
+  p.bias = bias;
+  p.mask_weight = 1.0;
+  p.altitude_scale = a_scale;
+  p.altitude_length_bottom_m = 200;
+  p.altitude_length_top_m = 400;
+  p.threshold = 0.5;
+  p.phase = optics::Phase::water;
+  p.water_content_g_m3 = 0.01;
+  p.effective_radius_um = 10;
+  auto cube = std::make_shared<clouds::CubeMap<float>>(4);
+  for (auto& v : cube->data()) v = 1.0f;
+  return CloudShell(weather::CloudType::low_stratus, p, tiny_textures(), cube, std::vector<clouds::DisplacementMap>(4));
+}
+
+}  // namespace
+
+TEST(Marcher, HomogeneousSlabDepthIsTheChord) {
+  // CF = 2 everywhere (no barriers): the whole shell is cloud. A vertical ray crosses exactly
+  // the shell thickness (2000 m); a slanted ray from 5000 m at 60 deg from the vertical
+  // crosses it along the chord computed from the two spheres.
+  const CloudShell s = layered_shell(1.0, 0.0);
+  const earth::Vec3 up = earth::unit_from_latlon(30, 40);
+  const earth::Vec3 o = up * (earth::radius_m + 5000);
+  auto ground = [&](const earth::Vec3& dir) { return earth::ray_sphere(o, dir, earth::radius_m)->t0; };
+  const ShellHit v = march_shell(s, o, -up, ground(-up), 25, 12);
+  ASSERT_TRUE(v.hit);
+  EXPECT_NEAR(v.depth_m, 2000.0, 1e-6);  // interpolation is exact for a constant field
+  EXPECT_NEAR(glm::length(v.position) - earth::radius_m, 3000.0, 1e-6);
+  const earth::Vec3 d = glm::normalize(-std::cos(60 * earth::deg) * up + std::sin(60 * earth::deg) * earth::local_east(up));
+  const ShellHit sl = march_shell(s, o, d, ground(d), 25, 12);
+  const auto outer = earth::ray_sphere(o, d, earth::radius_m + 3000), inner = earth::ray_sphere(o, d, earth::radius_m + 1000);
+  ASSERT_TRUE(sl.hit && outer && inner);
+  EXPECT_NEAR(sl.depth_m, inner->t0 - outer->t0, 1e-6);
+}
+
+TEST(Marcher, FirstCrossingFoundByBisection) {
+  // With bias -0.4 the level set CF = 0.5 lies where the barriers sum to 0.1; a ray from
+  // above meets the upper root of exp(-(z-1000)/200) + exp((z-3000)/400) = 0.1, found here
+  // independently by bisection of that expression on [1700, 3000] m (increasing there).
+  const CloudShell s = layered_shell(-0.4);
+  double lo = 1700, hi = 3000;
+  for (int i = 0; i < 100; ++i) {
+    const double z = 0.5 * (lo + hi);
+    (std::exp(-(z - 1000) / 200) + std::exp((z - 3000) / 400) > 0.1 ? hi : lo) = z;
+  }
+  const earth::Vec3 up = earth::unit_from_latlon(-10, 100);
+  const ShellHit h = march_shell(s, up * (earth::radius_m + 10000), -up, 10000, 25, 12);
+  ASSERT_TRUE(h.hit);
+  // Bisection to step / 2^12 = 80 m / 4096 = 0.02 m.
+  EXPECT_NEAR(glm::length(h.position) - earth::radius_m, lo, 0.05);
+  // The cloud function depends on altitude only, so the surface normal is the local vertical
+  // (finite-difference gradient: error ~ h^2 CF''' / 6, negligible here).
+  EXPECT_NEAR(glm::dot(h.normal, up), 1.0, 1e-6);
+}
+
+TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
+  // Night side (Sun below the horizon): L = eps B(T_cloud) + exp(-tau) B(T_surface), with
+  // eps = 1 - R - T of the two-stream slab and the direct transmittance by Beer's law (5).
+  clouds::CloudScene scene;
+  scene.shells.push_back(layered_shell(1.0, 0.0));
+  const earth::Vec3 up = earth::unit_from_latlon(0, 0);
+  Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
+  earth::SunPosition sun{};
+  sun.direction_ecef = -up;  // midnight at the sub-sensor point
+  sun.distance_au = 1;
+  RenderParams params;
+  params.bands = {"lwir"};
+  params.surface_temperature_k = 290;
+  const RenderImage img = render(scene, sensor, sun, params);
+  const optics::Band& b = optics::band("lwir");
+  const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
+  const double tau = props.extinction_per_m * 2000.0;
+  const auto slab = optics::two_stream_slab(tau, props.single_scattering_albedo);
+  const double expected = (1 - slab.reflectance - slab.transmittance) * optics::band_planck(b, optics::standard_atmosphere_temperature_k(3000)) +
+                          std::exp(-tau) * optics::band_planck(b, 290);
+  // The renderer tabulates Planck at 0.01 K: relative error < 1e-5.
+  EXPECT_NEAR(img.radiance[0][0] / expected, 1.0, 1e-5);
+  EXPECT_NEAR(img.cloud_top_altitude_m[0], 3000, 1e-3);
+  EXPECT_NEAR(img.cloud_optical_depth[0],
+              optics::cloud_optics(optics::Phase::water, 0.01, 10, optics::band("vis")).extinction_per_m * 2000, 1e-4);
+}
+
+// ---- On the real GFS sample -------------------------------------------------------------
+
+struct RealScene {
+  weather::WeatherGrid w;
+  clouds::CloudScene scene;
+  clouds::CloudModelParams params;
+  RealScene() {
+    w = weather::open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+    params.texture_size = 64;
+    params.mask_cube_size = 128;
+    params.displacement_cube_size = 64;
+    const auto masks = weather::compute_masks(w, weather::MaskParams{});
+    scene = clouds::build_scene(w, masks, params, {weather::CloudType::low_cumulus, weather::CloudType::cirrus}, 3);
+  }
+};
+const RealScene& real() {
+  static RealScene r;
+  return r;
+}
+
+TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
+  const auto& r = real();
+  const Sensor s = Sensor::geostationary(-75.2, 96, 96);
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  set_threads(1);
+  const RenderImage a = render(r.scene, s, sun, RenderParams{}, &r.w);
+  set_threads(2);
+  const RenderImage b = render(r.scene, s, sun, RenderParams{}, &r.w);
+  set_threads(0);
+  for (std::size_t k = 0; k < a.radiance.size(); ++k)
+    EXPECT_EQ(std::memcmp(a.radiance[k].data(), b.radiance[k].data(), a.radiance[k].size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(a.cloud_top_altitude_m.data(), b.cloud_top_altitude_m.data(), a.cloud_top_altitude_m.size() * sizeof(float)), 0);
+  // Sanity: clouds in the disc, none in space (corners).
+  EXPECT_GT(std::count(a.cloud_type.begin(), a.cloud_type.end(), 1) + std::count(a.cloud_type.begin(), a.cloud_type.end(), 3), 100);
+  EXPECT_EQ(a.cloud_type[0], -1);
+}
+
+TEST(RendererOnGfs, GeoAndLeoSeeTheSameCloudTops) {
+  // Deterministic clouds: a LEO nadir view below the GEO sub-satellite point finds cloud
+  // surfaces; the ray from GEO towards the same points must find the same surface within the
+  // marching step (the rays are within ~6 deg of parallel, so they cross the same cloud tops).
+  const auto& r = real();
+  const Sensor geo = Sensor::geostationary(-75.2, 10, 10);
+  const Sensor leo = Sensor::nadir(-2.5, -77.5, 700e3, 40, 48, 48);
+  int compared = 0, within = 0;
+  for (const auto& shell : r.scene.shells) {
+    const double step_geo = (shell.params().shell_top_m - shell.params().shell_bottom_m) / 25;
+    for (int y = 0; y < leo.height; ++y)
+      for (int x = 0; x < leo.width; ++x) {
+        const earth::Vec3 d = leo.ray(x + 0.5, y + 0.5);
+        const auto e = earth::ray_sphere(leo.position, d, earth::radius_m);
+        const ShellHit a = march_shell(shell, leo.position, d, e ? e->t0 : 1e12, 25, 12);
+        if (!a.hit) continue;
+        const earth::Vec3 dg = glm::normalize(a.position - geo.position);
+        const ShellHit b = march_shell(shell, geo.position, dg, 1e12, 25, 12);
+        if (!b.hit) continue;
+        ++compared;
+        within += std::abs(glm::length(a.position) - glm::length(b.position)) <= step_geo ? 1 : 0;
+      }
+  }
+  ASSERT_GT(compared, 50);
+  // Most points agree within one step; the rest are where the two rays graze different
+  // bumps of a 3D surface.
+  EXPECT_GT(static_cast<double>(within) / compared, 0.85) << within << " / " << compared;
+}
+
+}  // namespace nephos::render

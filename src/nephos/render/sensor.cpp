@@ -1,0 +1,105 @@
+#include "nephos/render/sensor.hpp"
+
+#include <filesystem>
+#include <fmt/format.h>
+#include <sstream>
+#include <vector>
+
+#include "nephos/core/error.hpp"
+
+namespace nephos::render {
+namespace {
+Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth::Vec3& up_hint, double fov_deg,
+                int width, int height) {
+  if (!(fov_deg > 0 && fov_deg < 179)) throw ValueError(fmt::format("field of view {} deg must be in (0, 179)", fov_deg), {.key = "fov"});
+  if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "--size"});
+  Sensor s;
+  s.position = pos;
+  s.forward = glm::normalize(forward);
+  earth::Vec3 right = glm::cross(s.forward, up_hint);
+  if (glm::length(right) < 1e-9) right = glm::cross(s.forward, earth::Vec3{0, 0, 1});
+  if (glm::length(right) < 1e-9) right = glm::cross(s.forward, earth::Vec3{1, 0, 0});
+  s.right = glm::normalize(right);
+  s.up = glm::cross(s.right, s.forward);
+  s.fov_deg = fov_deg;
+  s.width = width;
+  s.height = height;
+  return s;
+}
+
+std::vector<double> numbers(const std::string& list, std::size_t count, const std::string& spec) {
+  std::vector<double> v;
+  std::stringstream ss(list);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw ValueError(fmt::format("'{}' in sensor '{}' is not a number", item, spec), {.key = "--sensor"});
+    }
+  }
+  if (v.size() != count) throw ValueError(fmt::format("sensor '{}' needs {} comma-separated numbers", spec, count), {.key = "--sensor"});
+  return v;
+}
+}  // namespace
+
+Sensor Sensor::geostationary(double lon_deg, int width, int height) {
+  const earth::Vec3 pos = earth::ecef({0, lon_deg, geostationary_altitude_m});
+  const double fov = 2 * std::asin((earth::radius_m + 100e3) / glm::length(pos)) / earth::deg;
+  Sensor s = oriented(pos, -pos, {0, 0, 1}, fov, width, height);
+  s.description = fmt::format("geostationary over {:g} deg, full disc ({:.2f} deg)", lon_deg, fov);
+  return s;
+}
+
+Sensor Sensor::nadir(double lat_deg, double lon_deg, double altitude_m, double fov_deg, int width, int height) {
+  const earth::Vec3 pos = earth::ecef({lat_deg, lon_deg, altitude_m});
+  const earth::Vec3 up = glm::normalize(pos);
+  Sensor s = oriented(pos, -up, earth::local_north(up), fov_deg, width, height);
+  s.description = fmt::format("nadir from {:g} deg, {:g} deg, {:g} km, {:g} deg field of view", lat_deg, lon_deg, altitude_m / 1e3, fov_deg);
+  return s;
+}
+
+Sensor Sensor::look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
+                       int height, const earth::Vec3* up_hint) {
+  const earth::Vec3 pos = earth::ecef(from), tgt = earth::ecef(target);
+  if (glm::length(tgt - pos) < 1.0) throw ValueError("camera position and look-at target coincide", {.key = "camera"});
+  Sensor s = oriented(pos, tgt - pos, up_hint ? *up_hint : glm::normalize(pos), fov_deg, width, height);
+  s.description = fmt::format("camera at ({:g}, {:g}, {:g} m) looking at ({:g}, {:g}, {:g} m)", from.lat_deg,
+                              from.lon_deg, from.alt_m, target.lat_deg, target.lon_deg, target.alt_m);
+  return s;
+}
+
+Sensor sensor_from(const ParamDict& c, int width, int height) {
+  auto need = [&](const char* key) {
+    if (!c.has(key)) throw ConfigError("missing camera key", {.file = c.source(), .key = std::string("camera.") + key});
+    return c.get(key, 0.0);
+  };
+  const earth::Geodetic from{need("position_lat_deg"), need("position_lon_deg"), need("position_alt_m")};
+  const earth::Geodetic to{need("look_at_lat_deg"), need("look_at_lon_deg"), c.get("look_at_alt_m", 0.0)};
+  const double fov = need("fov_deg");
+  const std::vector<double> up = c.get("up", std::vector<double>{});
+  if (!up.empty() && up.size() != 3) throw ConfigError("expected [x, y, z]", {.file = c.source(), .key = "camera.up"});
+  const earth::Vec3 hint = up.empty() ? earth::Vec3{} : earth::Vec3{up[0], up[1], up[2]};
+  return Sensor::look_at(from, to, fov, width, height, up.empty() ? nullptr : &hint);
+}
+
+Sensor parse_sensor(const std::string& spec, int width, int height) {
+  if (spec.rfind("geo:", 0) == 0) return Sensor::geostationary(numbers(spec.substr(4), 1, spec)[0], width, height);
+  if (spec.rfind("leo:", 0) == 0) {
+    const auto v = numbers(spec.substr(4), 4, spec);
+    if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "--sensor"});
+    return Sensor::nadir(v[0], v[1], v[2] * 1e3, v[3], width, height);
+  }
+  if (std::filesystem::exists(spec)) {
+    const ParamDict d = ParamDict::from_file(spec);
+    Sensor s = sensor_from(d.table("camera"), width, height);
+    d.check_unused();
+    return s;
+  }
+  throw ValueError("sensor '" + spec + "' is neither geo:LON, leo:LAT,LON,ALT_KM,FOV_DEG nor an existing TOML file",
+                   {.key = "--sensor"});
+}
+
+}  // namespace nephos::render

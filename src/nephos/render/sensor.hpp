@@ -1,0 +1,46 @@
+#pragma once
+// A sensor: a pinhole camera in Earth-fixed space with a focal-plane array of width x height
+// pixels and a horizontal field of view (square pixels). Presets for a geostationary full-disc
+// imager and a nadir-looking low-orbit imager; a general look-at form for oblique views.
+#include <string>
+
+#include "nephos/core/config.hpp"
+#include "nephos/earth/geometry.hpp"
+
+namespace nephos::render {
+
+inline constexpr double geostationary_altitude_m = 35786e3;
+
+struct Sensor {
+  earth::Vec3 position;          ///< ECEF [m]
+  earth::Vec3 forward, right, up;  ///< orthonormal attitude (up: image top)
+  double fov_deg = 20;           ///< full horizontal field of view
+  int width = 1000, height = 1000;
+  std::string description;
+
+  /// Unit direction of the ray through image point (x, y) in pixels (0,0 = top-left corner).
+  earth::Vec3 ray(double x, double y) const {
+    const double t = std::tan(0.5 * fov_deg * earth::deg);
+    const double sx = (2.0 * x / width - 1.0) * t;
+    const double sy = (1.0 - 2.0 * y / height) * t * height / width;
+    return glm::normalize(forward + sx * right + sy * up);
+  }
+
+  /// Full disc from geostationary orbit over longitude `lon_deg`, north up; the field of view
+  /// holds the Earth plus a 100 km margin for cloud shells.
+  static Sensor geostationary(double lon_deg, int width, int height);
+  /// Nadir-looking from (lat, lon, altitude), north up.
+  static Sensor nadir(double lat_deg, double lon_deg, double altitude_m, double fov_deg, int width, int height);
+  /// From `from` towards `target`; `up_hint` (ECEF, need not be exact) sets the image's up, by
+  /// default the local vertical at `from`.
+  static Sensor look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
+                        int height, const earth::Vec3* up_hint = nullptr);
+};
+
+/// "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG", or a TOML file with a [camera] table
+/// (position_lat_deg, position_lon_deg, position_alt_m, look_at_lat_deg, look_at_lon_deg,
+/// look_at_alt_m, fov_deg, optional up = [x, y, z] ECEF). Throws ValueError/ConfigError.
+Sensor parse_sensor(const std::string& spec, int width, int height);
+Sensor sensor_from(const ParamDict& camera, int width, int height);
+
+}  // namespace nephos::render
