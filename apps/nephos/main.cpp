@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
@@ -14,11 +15,18 @@
 #include "nephos/core/log.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/core/progress.hpp"
+#include "nephos/clouds/cloud_model.hpp"
+#include "nephos/core/time.hpp"
+#include "nephos/earth/sun.hpp"
+#include "nephos/render/outputs.hpp"
+#include "nephos/render/renderer.hpp"
+#include "nephos/render/sensor.hpp"
 #include "nephos/weather/info.hpp"
 #include "nephos/weather/masks.hpp"
 #include "nephos/weather/masks_io.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/synthetic.hpp"
+#include "render_bench.hpp"
 
 namespace fs = std::filesystem;
 using namespace nephos;
@@ -46,6 +54,42 @@ struct MasksOptions {
   bool synthetic = false;
   int png_width = 1440;
 };
+
+struct RenderOptions {
+  std::string weather;
+  bool synthetic = false;
+  std::string sensor = "geo:-75.2";
+  std::string size = "1000x1000";
+  std::string types = "low_stratus,low_cumulus,altostratus,cirrus";
+  std::string bands = "vis,nir,lwir";
+  int steps = 25;
+  int texture = 256;
+  double displace_hours = -1;  // < 0: per-type defaults
+  double advance_hours = 0;
+  int frames = 1;
+  std::string time;
+  std::string config;
+  std::string out = "out";
+};
+
+std::vector<std::string> split(const std::string& list, const std::string& key) {
+  std::vector<std::string> out;
+  std::string item;
+  std::stringstream ss(list);
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  if (out.empty()) throw ValueError("empty list", {.key = key});
+  return out;
+}
+
+std::pair<int, int> parse_size(const std::string& s) {
+  int w = 0, h = 0;
+  char x = 0;
+  std::stringstream ss(s);
+  if (!(ss >> w >> x >> h) || x != 'x' || w < 1 || h < 1 || w > 20000 || h > 20000 || !ss.eof())
+    throw ValueError("expected WIDTHxHEIGHT (1..20000), got '" + s + "'", {.key = "--size"});
+  return {w, h};
+}
 
 weather::WeatherGrid load_weather(const std::string& path, bool synthetic, std::uint64_t seed) {
   if (synthetic) {
@@ -99,6 +143,65 @@ int run_masks(const MasksOptions& o, const GlobalOptions& g) {
   return 0;
 }
 
+int run_render(const RenderOptions& o, const GlobalOptions& g) {
+  const auto t_start = std::chrono::steady_clock::now();
+  // Parse everything before any work, so that bad input fails fast and writes nothing.
+  const auto [width, height] = parse_size(o.size);
+  std::vector<weather::CloudType> types;
+  for (const auto& t : split(o.types, "--types")) types.push_back(weather::cloud_type_from_name(t));
+  render::RenderParams rp;
+  rp.steps = o.steps;
+  rp.bands = split(o.bands, "--bands");
+  for (const auto& b : rp.bands) optics::band(b);
+  if (o.steps < 1 || o.steps > 10000) throw ValueError("must be 1..10000", {.key = "--steps"});
+  if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
+  clouds::CloudModelParams cp;
+  weather::MaskParams mp;
+  if (!o.config.empty()) {
+    const ParamDict dict = ParamDict::from_file(o.config);
+    cp = clouds::CloudModelParams::from(dict);
+    mp = weather::MaskParams::from(dict);
+    dict.check_unused();
+  }
+  cp.texture_size = o.texture;
+  if (o.displace_hours >= 0)
+    for (auto& t : cp.types)
+      for (auto& f : t.fractals) f.displace_hours = o.displace_hours;
+  const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
+
+  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed);
+  const UtcTime time = o.time.empty() ? w.metadata().valid_time : UtcTime::parse(o.time);
+  const earth::SunPosition sun = earth::sun_position(time);
+  spdlog::info("sensor: {}", sensor.description);
+  spdlog::info("time {}: subsolar point {:.2f}, {:.2f}", time.iso(), sun.subsolar_lat_deg, sun.subsolar_lon_deg);
+  const weather::WeatherMasks masks = weather::compute_masks(w, mp);
+  clouds::CloudScene scene = clouds::build_scene(w, masks, cp, types, g.seed);
+  if (o.advance_hours != 0) clouds::advance_scene(scene, o.advance_hours, cp);
+
+  const fs::path out(o.out);
+  ensure_directory(out);
+  for (int frame = 0; frame < o.frames; ++frame) {
+    if (frame > 0) clouds::advance_scene(scene, o.advance_hours, cp);
+    const render::RenderImage img = render::render(scene, sensor, sun, rp, &w);
+    const fs::path dir = o.frames == 1 ? out : out / fmt::format("frame_{:03d}", frame);
+    ensure_directory(dir);
+    render::FrameMetadata meta{w.metadata().source, sensor.description, time.iso(), sun.subsolar_lat_deg,
+                               sun.subsolar_lon_deg, g.seed, o.steps, o.texture, {}};
+    for (auto t : types) meta.types.emplace_back(weather::name(t));
+    render::write_render_netcdf(dir / "render.nc", img, meta);
+    render::write_render_exr(dir / "render.exr", img);
+    render::write_render_previews(dir, img);
+    std::string summary;
+    for (const auto& [name, secs] : img.seconds_per_type) summary += fmt::format(" {} {:.0f} ms,", name, secs * 1e3);
+    if (!summary.empty()) summary.pop_back();
+    std::cout << fmt::format("frame {}: {}x{} px, {} steps, texture {}^3:{} ({} threads)\n", frame, width, height,
+                             o.steps, o.texture, summary, thread_count());
+  }
+  spdlog::info("wrote {} in {:.1f} s", out.string(),
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -125,6 +228,31 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(16, 16384));
 
+  RenderOptions ro;
+  auto* rend = app.add_subcommand("render", "Render 3D fractal clouds from a sensor (GEO, LEO or any camera)");
+  rend->add_option("--weather", ro.weather, "GRIB file (default: the embedded GFS sample)");
+  rend->add_flag("--synthetic", ro.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
+  rend->add_option("--sensor", ro.sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")->capture_default_str();
+  rend->add_option("--size", ro.size, "Focal-plane array WIDTHxHEIGHT [pixels]")->capture_default_str();
+  rend->add_option("--types", ro.types, "Cloud types, comma-separated")->capture_default_str();
+  rend->add_option("--bands", ro.bands, "Bands: vis, nir, lwir")->capture_default_str();
+  rend->add_option("--steps", ro.steps, "Ray-marching steps per shell")->capture_default_str();
+  rend->add_option("--texture", ro.texture, "Fractal texture size N (N^3 voxels, power of two)")->capture_default_str();
+  rend->add_option("--displace-hours", ro.displace_hours, "Wind displacement of all fractals [h] (default: per type)");
+  rend->add_option("--advance-hours", ro.advance_hours, "Propagate the displacement maps by H hours (per frame)");
+  rend->add_option("--frames", ro.frames, "Number of frames (each advanced by --advance-hours)")->capture_default_str();
+  rend->add_option("--time", ro.time, "UTC time for the Sun, ISO 8601 (default: the weather's valid time)");
+  rend->add_option("--config", ro.config, "TOML with [clouds.*], [textures], [displacement], [masks.*] parameters");
+  rend->add_option("--out", ro.out, "Output directory")->capture_default_str();
+
+  auto* bench = app.add_subcommand("bench", "Benchmarks that print measured figures beside their anchors");
+  bench->require_subcommand(1);
+  bench::RenderBenchOptions rbo;
+  auto* bench_render = bench->add_subcommand("render", "Table 3 configurations of the fractal renderer");
+  bench_render->add_option("--type", rbo.type, "Cloud type to render")->capture_default_str();
+  bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")->capture_default_str();
+  bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -141,6 +269,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*masks) return run_masks(mo, g);
+    if (*rend) return run_render(ro, g);
+    if (*bench_render) return bench::run_render_bench(rbo, g.seed);
   } catch (const Error& e) {
     std::cerr << "nephos: error: " << e.what() << "\n";
     return exit_input_error;

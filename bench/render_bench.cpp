@@ -1,0 +1,95 @@
+#include "render_bench.hpp"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fmt/format.h>
+#include <iostream>
+#include <map>
+#include <vector>
+
+#include "nephos/clouds/cloud_model.hpp"
+#include "nephos/core/parallel.hpp"
+#include "nephos/earth/sun.hpp"
+#include "nephos/render/renderer.hpp"
+#include "nephos/weather/reader.hpp"
+
+namespace nephos::bench {
+namespace {
+
+double peak_rss_mib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+// Median over `repeat` runs of the shell pass time [ms].
+double time_shell_ms(const clouds::CloudScene& scene, const render::Sensor& sensor, const earth::SunPosition& sun,
+                     const render::RenderParams& rp, const weather::WeatherGrid& w, int repeat) {
+  std::vector<double> ms;
+  for (int r = 0; r < repeat; ++r) {
+    const render::RenderImage img = render::render(scene, sensor, sun, rp, &w);
+    ms.push_back(img.seconds_per_type.at(0).second * 1e3);
+  }
+  std::sort(ms.begin(), ms.end());
+  return ms[ms.size() / 2];
+}
+
+}  // namespace
+
+int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
+  const auto type = weather::cloud_type_from_name(o.type);
+  const std::filesystem::path sample = std::filesystem::path(NEPHOS_DATA_DIR) / "gfs_20110110_12z_f120_2p5deg.grib2";
+  const weather::WeatherGrid w = weather::open_weather(sample);
+  const weather::WeatherMasks masks = weather::compute_masks(w, weather::MaskParams{});
+  const earth::SunPosition sun = earth::sun_position(w.metadata().valid_time);
+  const int scale = o.quick ? 4 : 1;
+
+  struct Config {
+    int pixels, texture, steps;
+    double seed_gpu_ms;
+  };
+  const std::vector<Config> configs{{2000, 256, 25, 718}, {1000, 256, 25, 195}, {2000, 128, 25, 590}, {2000, 256, 15, 458}};
+  std::map<int, clouds::CloudScene> scenes;
+  for (int tex : {256, 128}) {
+    clouds::CloudModelParams cp;
+    cp.texture_size = tex;
+    const auto t0 = std::chrono::steady_clock::now();
+    scenes.emplace(tex, clouds::build_scene(w, masks, cp, {type}, seed));
+    std::cout << fmt::format("setup (textures {}^3 x 3, wind, displacement and mask cube maps): {:.2f} s\n", tex,
+                             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::cout << fmt::format("\nnephos bench render: one {} shell, GEO full disc (geo:-75.2), bands vis+nir+lwir, {} threads, median of {}{}\n",
+                           o.type, thread_count(), o.repeat, o.quick ? " [QUICK: images 1/4 size, not comparable]" : "");
+  std::cout << fmt::format("{:>11} {:>10} {:>6} {:>16} {:>22} {:>8}\n", "FPA", "texture", "steps", "nephos ms/shell",
+                           "seed GTX 1650 ms/shell", "ratio");
+  double peak = 0;
+  std::vector<double> measured;
+  for (const auto& c : configs) {
+    const int px = c.pixels / scale;
+    render::RenderParams rp;
+    rp.steps = c.steps;
+    const render::Sensor s = render::Sensor::geostationary(-75.2, px, px);
+    const double ms = time_shell_ms(scenes.at(c.texture), s, sun, rp, w, o.repeat);
+    measured.push_back(ms);
+    peak = std::max(peak, peak_rss_mib());
+    std::cout << fmt::format("{:>11} {:>10} {:>6} {:>16.0f} {:>22.0f} {:>8.2f}\n", fmt::format("{}x{}", px, px),
+                             fmt::format("{}^3 x 3", c.texture), c.steps, ms, c.seed_gpu_ms, ms / c.seed_gpu_ms);
+  }
+  std::cout << fmt::format("\npeak resident memory: {:.0f} MiB (goal for 2000^2 with 256^3 textures: < 1536 MiB)\n", peak);
+
+  // Scaling: with pixels (2000^2 vs 1000^2 is 4x the pixels) and not with field of view.
+  std::cout << fmt::format("pixel scaling: 2000^2 / 1000^2 time = {:.2f} (pixel ratio 4)\n", measured[0] / measured[1]);
+  render::RenderParams rp;
+  const int px = 1000 / scale;
+  const double geo = measured[1];
+  const double leo = time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 5, px, px), sun, rp, w, o.repeat);
+  const double leo_wide = time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 60, px, px), sun, rp, w, o.repeat);
+  std::cout << fmt::format("field of view at {}^2: GEO full disc {:.0f} ms, LEO 60 deg {:.0f} ms, LEO 5 deg {:.0f} ms\n", px,
+                           geo, leo_wide, leo);
+  return 0;
+}
+
+}  // namespace nephos::bench
