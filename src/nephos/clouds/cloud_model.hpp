@@ -98,17 +98,30 @@ class CloudShell {
   double bias() const { return bias_; }
   double mask_weight() const { return mask_weight_; }
 
-  /// CF at Earth-fixed position p [m]. When the texture-free upper bound already falls below
-  /// the threshold the textures are not sampled and that bound is returned (still < threshold).
-  double value(const earth::Vec3& p) const;
+  /// CF at Earth-fixed position p [m], exact.
+  double value(const earth::Vec3& p) const { return evaluate(p, false); }
+  /// CF or, once the side of the threshold is certain, a bound on it with the same side:
+  /// fractal terms are added in order (coarse, Worley, fine: the most cache-friendly first)
+  /// and the rest skipped when their largest or smallest possible sum cannot change whether
+  /// CF exceeds the threshold. What ray marching needs, at a fraction of the texture fetches.
+  double classify(const earth::Vec3& p) const { return evaluate(p, true); }
   /// The mask value seen at p (after the mask's displacement).
   double mask_at(const earth::Vec3& p) const;
-  /// Gradient of CF by central differences with step h [m].
+  /// Gradient of CF by forward differences with step h [m].
   earth::Vec3 gradient(const earth::Vec3& p, double h) const;
   /// The finest feature size [m]: the fine fractal's voxel.
   double feature_size_m() const;
+  /// Conservative test for empty-space skipping: false when no point within `radius_m` of
+  /// the great-circle direction `d` can hold cloud (the displaced mask stays below min_mask
+  /// there). Looks up a coarse cube map of the mask's neighbourhood maximum.
+  bool may_have_cloud(const earth::Vec3& d) const { return mask_max_.sample(d) >= p_.min_mask; }
+  /// Angular half-width [rad] of the neighbourhood may_have_cloud() covers.
+  double skip_radius_rad() const { return skip_radius_rad_; }
   /// Replaces the displacement maps (animation).
-  void set_maps(std::vector<DisplacementMap> maps) { maps_ = std::move(maps); }
+  void set_maps(std::vector<DisplacementMap> maps) {
+    maps_ = std::move(maps);
+    build_skip_map();
+  }
   const std::vector<DisplacementMap>& maps() const { return maps_; }
 
  private:
@@ -117,8 +130,18 @@ class CloudShell {
   std::shared_ptr<const FractalTextures> tex_;
   std::shared_ptr<const CubeMap<float>> mask_;
   std::vector<DisplacementMap> maps_;  ///< [0] mask, [1..3] fractals
+  double evaluate(const earth::Vec3& p, bool early_out) const;
+  void build_skip_map();
+  double barrier(double alt) const;
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_;
+  std::array<int, 3> order_{0, 2, 1};  ///< evaluation order of the fractal terms
+  CubeMap<float> mask_max_;
+  double skip_radius_rad_ = 0;
+  // Altitude barriers tabulated at 1 m over the shell +- 1 km (linear interpolation; the
+  // exponentials' relative change over 1 m is < 1/150, error < 1e-5).
+  std::vector<float> barrier_table_;
+  double barrier_z0_ = 0;
 };
 
 /// Everything needed to render clouds of several types from one weather state.

@@ -82,20 +82,31 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
   ShellHit hit;
   Path path;
   if (!shell_path(shell.radius_bottom_m(), shell.radius_top_m(), o, d, t_max, path)) return hit;
+  // Empty-space skipping: look up the mask's neighbourhood maximum along the path, one lookup
+  // per skip radius of arc; a ray whose whole path sees no possible cloud costs nothing more.
+  {
+    const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d), b = glm::normalize(o + path.t_at(path.length()) * d);
+    const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+    const int n = 1 + static_cast<int>(arc / shell.skip_radius_rad());
+    bool possible = false;
+    for (int i = 0; i <= n && !possible; ++i)
+      possible = shell.may_have_cloud(o + path.t_at(path.length() * i / n) * d);
+    if (!possible) return hit;
+  }
   const double len = path.length(), ds = len / steps, thr = shell.threshold();
-  double s_prev = 0, v_prev = shell.value(o + path.t_at(0) * d) - thr;
+  double s_prev = 0, v_prev = shell.classify(o + path.t_at(0) * d) - thr;
   double s_hit = -1;
   int k = 1;
   if (v_prev > 0) {
     s_hit = 0;
   } else {
     for (; k <= steps; ++k) {
-      const double s = k * ds, v = shell.value(o + path.t_at(s) * d) - thr;
+      const double s = k * ds, v = shell.classify(o + path.t_at(s) * d) - thr;
       if (v > 0) {  // refine the first crossing in (s_prev, s] by bisection
         double lo = s_prev, hi = s;
         for (int it = 0; it < bisection_iterations; ++it) {
           const double mid = 0.5 * (lo + hi);
-          (shell.value(o + path.t_at(mid) * d) - thr > 0 ? hi : lo) = mid;
+          (shell.classify(o + path.t_at(mid) * d) - thr > 0 ? hi : lo) = mid;
         }
         s_hit = hi;
         // Depth inside this step, from the surface to the step's end.
@@ -110,9 +121,10 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
     }
     if (s_hit < 0) return hit;
   }
-  // Depth through the rest of the shell: linear interpolation of CF between samples.
+  // Depth through the rest of the shell: linear interpolation between samples (of CF, or of
+  // the bounds classify() returns, which keep CF's side: accuracy of order one step).
   for (; k <= steps; ++k) {
-    const double s = k * ds, v = shell.value(o + path.t_at(s) * d) - thr;
+    const double s = k * ds, v = shell.classify(o + path.t_at(s) * d) - thr;
     hit.depth_m += ds * inside_fraction(v_prev, v);
     v_prev = v;
   }
