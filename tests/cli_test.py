@@ -128,6 +128,93 @@ class Masks(unittest.TestCase):
             self.assertTrue((Path(d) / "masks.nc").exists())
 
 
+class Render(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.out = Path(cls.tmp.name) / "geo"
+        cls.result = run("--threads", "2", "render", "--size", "96x96", "--texture", "64", "--out", cls.out)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_outputs_and_summary(self):
+        self.assertEqual(self.result.returncode, 0, self.result.stderr)
+        names = sorted(p.name for p in self.out.iterdir())
+        self.assertEqual(names, ["lwir.png", "nir.png", "render.exr", "render.nc", "vis.png"])
+        self.assertEqual((self.out / "render.exr").read_bytes()[:4], bytes([0x76, 0x2F, 0x31, 0x01]))  # OpenEXR magic
+        self.assertEqual((self.out / "vis.png").read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
+        # The summary names the time per cloud type.
+        for t in ("low_stratus", "low_cumulus", "altostratus", "cirrus"):
+            self.assertRegex(self.result.stdout, t + r" \d+ ms")
+
+    def test_netcdf_content(self):
+        import numpy as np
+        import xarray as xr
+        ds = xr.open_dataset(self.out / "render.nc")
+        self.assertEqual(ds.attrs["Conventions"], "CF-1.8")
+        for v in ("radiance_vis", "radiance_nir", "radiance_lwir", "brightness_temperature_lwir",
+                  "cloud_top_altitude", "cloud_optical_depth", "cloud_type", "latitude", "longitude"):
+            self.assertIn(v, ds.variables)
+            self.assertEqual(ds[v].dims, ("y", "x"))
+        self.assertEqual(ds["cloud_top_altitude"].attrs["units"], "m")
+        self.assertEqual(ds["brightness_temperature_lwir"].attrs["units"], "K")
+        self.assertEqual(ds["radiance_vis"].attrs["units"], "W m-2 sr-1 um-1")
+        # Corners are space: no latitude; the centre sees the Earth near (0, -75.2).
+        self.assertTrue(np.isnan(ds["latitude"].values[0, 0]))
+        self.assertLess(abs(float(ds["latitude"].values[48, 48])), 3)
+        bt = ds["brightness_temperature_lwir"].values
+        earth = ~np.isnan(ds["latitude"].values)
+        self.assertTrue(np.all((bt[earth] > 150) & (bt[earth] < 330)))
+        top = ds["cloud_top_altitude"].values
+        cloudy = ~np.isnan(top)
+        self.assertGreater(cloudy.sum(), 200)
+        self.assertTrue(np.all((top[cloudy] >= 0) & (top[cloudy] <= 10000)))  # within the Table 1 shells
+        # Cold cloud tops: brightness temperature below the clear-sky surface's (~>270 K tropics).
+        self.assertLess(np.nanmedian(np.where(cloudy, bt, np.nan)), np.nanmedian(np.where(earth & ~cloudy, bt, np.nan)))
+
+    def test_bit_identical_with_one_thread(self):
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            r = run("--threads", "1", "render", "--size", "96x96", "--texture", "64", "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            a, b = netCDF4.Dataset(self.out / "render.nc"), netCDF4.Dataset(Path(d) / "render.nc")
+            for v in ("radiance_vis", "radiance_lwir", "cloud_top_altitude", "cloud_type"):
+                self.assertTrue(np.array_equal(np.ma.filled(a[v][:], -9), np.ma.filled(b[v][:], -9)), v)
+
+    def test_leo_animation_frames_move(self):
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            r = run("render", "--sensor", "leo:-5,-80,700,20", "--size", "48x48", "--texture", "64", "--types",
+                    "low_cumulus", "--bands", "vis", "--frames", "2", "--advance-hours", "3", "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            a = netCDF4.Dataset(Path(d) / "frame_000" / "render.nc")["cloud_top_altitude"][:]
+            b = netCDF4.Dataset(Path(d) / "frame_001" / "render.nc")["cloud_top_altitude"][:]
+            self.assertFalse(np.array_equal(np.ma.filled(a, -1), np.ma.filled(b, -1)))
+
+    def test_bad_input_writes_nothing(self):
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "out"
+            for args, needle in ((["--sensor", "geo:east"], "--sensor"), (["--size", "12by4"], "--size"),
+                                 (["--types", "nimbus"], "nimbus"), (["--bands", "uv"], "uv"),
+                                 (["--time", "tomorrow"], "tomorrow")):
+                r = run("render", *args, "--out", out)
+                self.assertEqual(r.returncode, 2, args)
+                self.assertIn(needle, r.stderr)
+                self.assertFalse(out.exists(), args)
+
+
+class Bench(unittest.TestCase):
+    def test_render_bench_smoke(self):
+        r = run("bench", "render", "--quick", "--repeat", "1")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view"):
+            self.assertIn(anchor, r.stdout)
+
+
 class Usage(unittest.TestCase):
     def test_help_and_bad_option(self):
         self.assertEqual(run("--help").returncode, 0)

@@ -84,3 +84,32 @@ TEST(CloudModelParams, TomlOverridesAndRejectsUnknownKeys) {
 }
 
 }  // namespace nephos::clouds
+
+namespace nephos::clouds {
+TEST(CloudModelParams, ShippedParameterFileEqualsTheDefaults) {
+  const auto d = ParamDict::from_file(std::filesystem::path(NEPHOS_SOURCE_DIR) / "configs/clouds.toml");
+  const CloudModelParams p = CloudModelParams::from(d);
+  EXPECT_NO_THROW(d.check_unused());
+  const CloudModelParams def;
+  EXPECT_EQ(p.texture_size, def.texture_size);
+  EXPECT_EQ(p.displacement_cube_size, def.displacement_cube_size);
+  EXPECT_EQ(p.mask_cube_size, def.mask_cube_size);
+  for (std::size_t k = 0; k < p.types.size(); ++k) {
+    const auto &a = p.types[k], &b = def.types[k];
+    EXPECT_EQ(a.shell_bottom_m, b.shell_bottom_m);
+    EXPECT_EQ(a.shell_top_m, b.shell_top_m);
+    EXPECT_EQ(a.wind_altitude_m, b.wind_altitude_m);
+    EXPECT_EQ(a.threshold, b.threshold);
+    EXPECT_EQ(a.altitude_length_bottom_m, b.altitude_length_bottom_m);
+    EXPECT_EQ(a.altitude_length_top_m, b.altitude_length_top_m);
+    EXPECT_EQ(a.phase, b.phase);
+    EXPECT_EQ(a.water_content_g_m3, b.water_content_g_m3);
+    EXPECT_EQ(a.effective_radius_um, b.effective_radius_um);
+    for (std::size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(a.fractals[i].weight, b.fractals[i].weight) << k << " " << i;
+      EXPECT_EQ(a.fractals[i].length_scale_m, b.fractals[i].length_scale_m);
+      EXPECT_EQ(a.fractals[i].displace_hours, b.fractals[i].displace_hours);
+    }
+  }
+}
+}  // namespace nephos::clouds
