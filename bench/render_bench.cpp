@@ -2,10 +2,10 @@
 
 #include <sys/resource.h>
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
-#include <fmt/format.h>
 #include <iostream>
 #include <map>
 #include <vector>
@@ -51,7 +51,8 @@ int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
     int pixels, texture, steps;
     double seed_gpu_ms;
   };
-  const std::vector<Config> configs{{2000, 256, 25, 718}, {1000, 256, 25, 195}, {2000, 128, 25, 590}, {2000, 256, 15, 458}};
+  const std::vector<Config> configs{
+      {2000, 256, 25, 718}, {1000, 256, 25, 195}, {2000, 128, 25, 590}, {2000, 256, 15, 458}};
   std::map<int, clouds::CloudScene> scenes;
   for (int tex : {256, 128}) {
     clouds::CloudModelParams cp;
@@ -61,8 +62,10 @@ int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
     std::cout << fmt::format("setup (textures {}^3 x 3, wind, displacement and mask cube maps): {:.2f} s\n", tex,
                              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
-  std::cout << fmt::format("\nnephos bench render: one {} shell, GEO full disc (geo:-75.2), bands vis+nir+lwir, {} threads, median of {}{}\n",
-                           o.type, thread_count(), o.repeat, o.quick ? " [QUICK: images 1/4 size, not comparable]" : "");
+  std::cout << fmt::format(
+      "\nnephos bench render: one {} shell, GEO full disc (geo:-75.2), bands vis+nir+lwir, {} threads, median of "
+      "{}{}\n",
+      o.type, thread_count(), o.repeat, o.quick ? " [QUICK: images 1/4 size, not comparable]" : "");
   std::cout << fmt::format("{:>11} {:>10} {:>6} {:>16} {:>22} {:>8}\n", "FPA", "texture", "steps", "nephos ms/shell",
                            "seed GTX 1650 ms/shell", "ratio");
   double peak = 0;
@@ -78,17 +81,21 @@ int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
     std::cout << fmt::format("{:>11} {:>10} {:>6} {:>16.0f} {:>22.0f} {:>8.2f}\n", fmt::format("{}x{}", px, px),
                              fmt::format("{}^3 x 3", c.texture), c.steps, ms, c.seed_gpu_ms, ms / c.seed_gpu_ms);
   }
-  std::cout << fmt::format("\npeak resident memory: {:.0f} MiB (goal for 2000^2 with 256^3 textures: < 1536 MiB)\n", peak);
+  std::cout << fmt::format("\npeak resident memory: {:.0f} MiB (goal for 2000^2 with 256^3 textures: < 1536 MiB)\n",
+                           peak);
 
   // Scaling: with pixels (2000^2 vs 1000^2 is 4x the pixels) and not with field of view.
   std::cout << fmt::format("pixel scaling: 2000^2 / 1000^2 time = {:.2f} (pixel ratio 4)\n", measured[0] / measured[1]);
   render::RenderParams rp;
   const int px = 1000 / scale;
   const double geo = measured[1];
-  const double leo = time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 5, px, px), sun, rp, w, o.repeat);
-  const double leo_wide = time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 60, px, px), sun, rp, w, o.repeat);
-  std::cout << fmt::format("field of view at {}^2: GEO full disc {:.0f} ms, LEO 60 deg {:.0f} ms, LEO 5 deg {:.0f} ms\n", px,
-                           geo, leo_wide, leo);
+  const double leo =
+      time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 5, px, px), sun, rp, w, o.repeat);
+  const double leo_wide =
+      time_shell_ms(scenes.at(256), render::Sensor::nadir(0, -75.2, 700e3, 60, px, px), sun, rp, w, o.repeat);
+  std::cout << fmt::format(
+      "field of view at {}^2: GEO full disc {:.0f} ms, LEO 60 deg {:.0f} ms, LEO 5 deg {:.0f} ms\n", px, geo, leo_wide,
+      leo);
   return 0;
 }
 

@@ -9,13 +9,13 @@
 #include <iostream>
 #include <sstream>
 
+#include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/log.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/core/progress.hpp"
-#include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
 #include "nephos/render/outputs.hpp"
@@ -185,8 +185,15 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     const render::RenderImage img = render::render(scene, sensor, sun, rp, &w);
     const fs::path dir = o.frames == 1 ? out : out / fmt::format("frame_{:03d}", frame);
     ensure_directory(dir);
-    render::FrameMetadata meta{w.metadata().source, sensor.description, time.iso(), sun.subsolar_lat_deg,
-                               sun.subsolar_lon_deg, g.seed, o.steps, o.texture, {}};
+    render::FrameMetadata meta{w.metadata().source,
+                               sensor.description,
+                               time.iso(),
+                               sun.subsolar_lat_deg,
+                               sun.subsolar_lon_deg,
+                               g.seed,
+                               o.steps,
+                               o.texture,
+                               {}};
     for (auto t : types) meta.types.emplace_back(weather::name(t));
     render::write_render_netcdf(dir / "render.nc", img, meta);
     render::write_render_exr(dir / "render.exr", img);
@@ -232,7 +239,8 @@ int main(int argc, char** argv) {
   auto* rend = app.add_subcommand("render", "Render 3D fractal clouds from a sensor (GEO, LEO or any camera)");
   rend->add_option("--weather", ro.weather, "GRIB file (default: the embedded GFS sample)");
   rend->add_flag("--synthetic", ro.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
-  rend->add_option("--sensor", ro.sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")->capture_default_str();
+  rend->add_option("--sensor", ro.sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")
+      ->capture_default_str();
   rend->add_option("--size", ro.size, "Focal-plane array WIDTHxHEIGHT [pixels]")->capture_default_str();
   rend->add_option("--types", ro.types, "Cloud types, comma-separated")->capture_default_str();
   rend->add_option("--bands", ro.bands, "Bands: vis, nir, lwir")->capture_default_str();
@@ -250,7 +258,8 @@ int main(int argc, char** argv) {
   bench::RenderBenchOptions rbo;
   auto* bench_render = bench->add_subcommand("render", "Table 3 configurations of the fractal renderer");
   bench_render->add_option("--type", rbo.type, "Cloud type to render")->capture_default_str();
-  bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")->capture_default_str();
+  bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")
+      ->capture_default_str();
   bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
 
   try {

@@ -1,10 +1,10 @@
 #include "nephos/clouds/cloud_model.hpp"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <map>
-#include <spdlog/spdlog.h>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
@@ -35,7 +35,7 @@ CloudModelParams::CloudModelParams() {
   auto& cu = (*this)[CloudType::low_cumulus];
   cu.shell_bottom_m = 0, cu.shell_top_m = 6000, cu.wind_altitude_m = 2000;
   cu.fractals = {{{0.35, 30e3, 6}, {0.25, 3e3, 6}, {0.40, 15e3, 6}}};
-  cu.altitude_length_bottom_m = 150, cu.altitude_length_top_m = 1200;  // flat bases, towering tops
+  cu.altitude_length_bottom_m = 150, cu.altitude_length_top_m = 1200;                   // flat bases, towering tops
   cu.phase = Phase::water, cu.water_content_g_m3 = 0.38, cu.effective_radius_um = 4.3;  // "Stratocumulus" mid-range
 
   auto& as = (*this)[CloudType::altostratus];
@@ -74,7 +74,10 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
       term.length_scale_m = f.get("length_scale_m", term.length_scale_m);
       term.displace_hours = f.get("displace_hours", term.displace_hours);
       if (!(term.length_scale_m > 0))
-        throw ConfigError("must be > 0", {.file = dict.source(), .key = fmt::format("clouds.{}.{}.length_scale_m", weather::name(static_cast<CloudType>(k)), fractal_names[i])});
+        throw ConfigError("must be > 0",
+                          {.file = dict.source(),
+                           .key = fmt::format("clouds.{}.{}.length_scale_m", weather::name(static_cast<CloudType>(k)),
+                                              fractal_names[i])});
     }
     q.calibrate = c.get("calibrate", q.calibrate);
     q.bias = c.get("bias", q.bias);
@@ -89,10 +92,14 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
     q.effective_radius_um = c.get("effective_radius_um", q.effective_radius_um);
     const std::string phase = c.get("phase", q.phase == optics::Phase::water ? "water" : "ice");
     if (phase != "water" && phase != "ice")
-      throw ConfigError("expected \"water\" or \"ice\"", {.file = dict.source(), .key = fmt::format("clouds.{}.phase", weather::name(static_cast<CloudType>(k)))});
+      throw ConfigError(
+          "expected \"water\" or \"ice\"",
+          {.file = dict.source(), .key = fmt::format("clouds.{}.phase", weather::name(static_cast<CloudType>(k)))});
     q.phase = phase == "water" ? optics::Phase::water : optics::Phase::ice;
     if (!(q.shell_top_m > q.shell_bottom_m))
-      throw ConfigError("shell_top_m must exceed shell_bottom_m", {.file = dict.source(), .key = fmt::format("clouds.{}", weather::name(static_cast<CloudType>(k)))});
+      throw ConfigError(
+          "shell_top_m must exceed shell_bottom_m",
+          {.file = dict.source(), .key = fmt::format("clouds.{}", weather::name(static_cast<CloudType>(k)))});
   }
   return p;
 }
@@ -126,9 +133,9 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
   barrier_table_.resize(static_cast<std::size_t>(nz));
   for (int i = 0; i < nz; ++i) {
     const double alt = barrier_z0_ + i;
-    barrier_table_[static_cast<std::size_t>(i)] = static_cast<float>(
-        p_.altitude_scale * (std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m) +
-                             std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m)));
+    barrier_table_[static_cast<std::size_t>(i)] =
+        static_cast<float>(p_.altitude_scale * (std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m) +
+                                                std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m)));
   }
   build_skip_map();
   if (p_.calibrate) {
@@ -167,7 +174,8 @@ void CloudShell::build_skip_map() {
         float m = 0;
         for (int b = 0; b < k; ++b)
           for (int a = 0; a < k; ++a) {
-            const double u = (i - 1.0 + 3.0 * a / (k - 1)) * 2.0 / n - 1.0, v = (j - 1.0 + 3.0 * b / (k - 1)) * 2.0 / n - 1.0;
+            const double u = (i - 1.0 + 3.0 * a / (k - 1)) * 2.0 / n - 1.0,
+                         v = (j - 1.0 + 3.0 * b / (k - 1)) * 2.0 / n - 1.0;
             earth::Vec3 d{0, 0, 0};
             d[f / 2] = f % 2 ? -1.0 : 1.0;
             d[(f / 2 + 1) % 3] = u;
@@ -242,9 +250,7 @@ earth::Vec3 CloudShell::gradient(const earth::Vec3& p, double h) const {
           (value(p + earth::Vec3{0, 0, h}) - v0) / h};
 }
 
-double CloudShell::feature_size_m() const {
-  return p_.fractals[1].length_scale_m / tex_->fine.size();
-}
+double CloudShell::feature_size_m() const { return p_.fractals[1].length_scale_m / tex_->fine.size(); }
 
 CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
                        const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed) {
@@ -265,8 +271,9 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
       auto key = std::pair{w, hours};
       auto m = map_cache.find(key);
       if (m == map_cache.end())
-        m = map_cache.emplace(key, DisplacementMap::build(scene.winds[static_cast<std::size_t>(w)], hours,
-                                                          params.displacement_cube_size, params.displacement_step_s))
+        m = map_cache
+                .emplace(key, DisplacementMap::build(scene.winds[static_cast<std::size_t>(w)], hours,
+                                                     params.displacement_cube_size, params.displacement_step_s))
                 .first;
       return m->second;
     };

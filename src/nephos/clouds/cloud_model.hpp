@@ -41,9 +41,9 @@ struct FractalTextures {
 };
 
 struct FractalTerm {
-  double weight = 0;           ///< m_i
-  double length_scale_m = 1;   ///< LS_i: metres per texture tile
-  double displace_hours = 0;   ///< hours of upwind displacement for this fractal
+  double weight = 0;          ///< m_i
+  double length_scale_m = 1;  ///< LS_i: metres per texture tile
+  double displace_hours = 0;  ///< hours of upwind displacement for this fractal
 };
 
 struct CloudTypeParams {
@@ -53,11 +53,11 @@ struct CloudTypeParams {
   double bias = 0;                             ///< b (ignored when calibrated)
   double mask_weight = 1;                      ///< w (ignored when calibrated)
   bool calibrate = true;
-  double mask_displace_hours = 0;              ///< the mask is valid-time weather: 0 by default
-  double threshold = 0.5;                      ///< level-set value
-  double altitude_scale = 1.0;                 ///< A
+  double mask_displace_hours = 0;  ///< the mask is valid-time weather: 0 by default
+  double threshold = 0.5;          ///< level-set value
+  double altitude_scale = 1.0;     ///< A
   double altitude_length_bottom_m = 300, altitude_length_top_m = 300;
-  double min_mask = 0.02;                      ///< below this mask value the sky is clear (skipping)
+  double min_mask = 0.02;  ///< below this mask value the sky is clear (skipping)
   // Optics (section 2.3)
   optics::Phase phase = optics::Phase::water;
   double water_content_g_m3 = 0.3;
@@ -148,8 +148,8 @@ class CloudShell {
 struct CloudScene {
   std::shared_ptr<const FractalTextures> textures;
   std::vector<CloudShell> shells;
-  std::vector<WindField> winds;   ///< one per distinct wind altitude
-  std::vector<int> wind_of_shell; ///< index into winds for each shell
+  std::vector<WindField> winds;    ///< one per distinct wind altitude
+  std::vector<int> wind_of_shell;  ///< index into winds for each shell
 };
 
 /// Builds textures, masks' cube maps, winds and displacement maps for the requested types.

@@ -9,10 +9,10 @@ namespace nephos::clouds {
 namespace {
 
 std::shared_ptr<const FractalTextures> small_textures() {
-  static auto t = std::make_shared<const FractalTextures>(FractalTextures{
-      noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 1, 32),
-      noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 2, 32),
-      noise::bake({noise::FractalKind::worley, 4, 2, 0.5, true}, 3, 32)});
+  static auto t = std::make_shared<const FractalTextures>(
+      FractalTextures{noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 1, 32),
+                      noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, 2, 32),
+                      noise::bake({noise::FractalKind::worley, 4, 2, 0.5, true}, 3, 32)});
   return t;
 }
 
@@ -28,7 +28,8 @@ double cloudy_fraction(const CloudShell& s) {
   int cloudy = 0;
   constexpr int n = 20000;
   for (int i = 0; i < n; ++i) {
-    const double z = 2 * uniform01(5, static_cast<std::uint64_t>(i), 0) - 1, phi = 2 * M_PI * uniform01(5, static_cast<std::uint64_t>(i), 1);
+    const double z = 2 * uniform01(5, static_cast<std::uint64_t>(i), 0) - 1,
+                 phi = 2 * M_PI * uniform01(5, static_cast<std::uint64_t>(i), 1);
     const earth::Vec3 d{std::sqrt(1 - z * z) * std::cos(phi), std::sqrt(1 - z * z) * std::sin(phi), z};
     cloudy += s.value(d * r) > s.threshold();
   }
@@ -69,7 +70,8 @@ TEST(CloudShell, DeterministicPureFunctionOfPosition) {
 
 TEST(CloudModelParams, TomlOverridesAndRejectsUnknownKeys) {
   const auto d = ParamDict::from_string(
-      "[clouds.cirrus]\nshell_top_m = 12000.0\n[clouds.cirrus.fine]\nweight = 0.4\n[clouds.low_cumulus]\ntypo = 1\n", "c.toml");
+      "[clouds.cirrus]\nshell_top_m = 12000.0\n[clouds.cirrus.fine]\nweight = 0.4\n[clouds.low_cumulus]\ntypo = 1\n",
+      "c.toml");
   const CloudModelParams p = CloudModelParams::from(d);
   EXPECT_EQ(p[CloudType::cirrus].shell_top_m, 12000);
   EXPECT_EQ(p[CloudType::cirrus].fractals[1].weight, 0.4);

@@ -40,9 +40,12 @@ class CubeMap {
     const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);
     int a;
     double m;
-    if (ax >= ay && ax >= az) a = 0, m = d.x;
-    else if (ay >= az) a = 1, m = d.y;
-    else a = 2, m = d.z;
+    if (ax >= ay && ax >= az)
+      a = 0, m = d.x;
+    else if (ay >= az)
+      a = 1, m = d.y;
+    else
+      a = 2, m = d.z;
     const int face = 2 * a + (m < 0 ? 1 : 0);
     const double inv = 1.0 / std::abs(m);
     const double u = d[(a + 1) % 3] * inv, v = d[(a + 2) % 3] * inv;

@@ -13,7 +13,8 @@ TEST(CubeMap, TexelCentresReturnTheirValue) {
       for (int i = 0; i < 8; ++i) c.texel(f, i, j) = static_cast<float>(f * 100 + j * 10 + i);
   for (int f = 0; f < 6; ++f)
     for (int j = 0; j < 8; ++j)
-      for (int i = 0; i < 8; ++i) EXPECT_NEAR(c.sample(c.texel_direction(f, i, j) * 3.0), c.texel(f, i, j), 1e-4);  // float weights
+      for (int i = 0; i < 8; ++i)
+        EXPECT_NEAR(c.sample(c.texel_direction(f, i, j) * 3.0), c.texel(f, i, j), 1e-4);  // float weights
 }
 
 TEST(CubeMap, SmoothFieldIsInterpolatedEverywhere) {
@@ -28,7 +29,8 @@ TEST(CubeMap, SmoothFieldIsInterpolatedEverywhere) {
         c.texel(f, i, j) = static_cast<float>(d.x + 2 * d.y - d.z);
       }
   for (int s = 0; s < 2000; ++s) {
-    const earth::Vec3 d = glm::normalize(earth::Vec3(uniform01(4, s, 0) - 0.5, uniform01(4, s, 1) - 0.5, uniform01(4, s, 2) - 0.5));
+    const earth::Vec3 d =
+        glm::normalize(earth::Vec3(uniform01(4, s, 0) - 0.5, uniform01(4, s, 1) - 0.5, uniform01(4, s, 2) - 0.5));
     EXPECT_NEAR(c.sample(d), d.x + 2 * d.y - d.z, 1e-3) << s;
   }
 }

@@ -53,7 +53,8 @@ DisplacementMap DisplacementMap::build(const WindField& wind, double hours, int 
   for (int f = 0; f < 6; ++f)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
-        m.upwind_.texel(f, i, j) = glm::vec3(trace_upwind(wind, m.upwind_.texel_direction(f, i, j), hours * 3600.0, step_s));
+        m.upwind_.texel(f, i, j) =
+            glm::vec3(trace_upwind(wind, m.upwind_.texel_direction(f, i, j), hours * 3600.0, step_s));
   return m;
 }
 

@@ -9,13 +9,13 @@
 namespace nephos::earth {
 
 struct SunPosition {
-  double right_ascension_deg;    ///< apparent, [0, 360)
-  double declination_deg;        ///< apparent
-  double apparent_longitude_deg; ///< ecliptic
-  double distance_au;            ///< Earth-Sun distance
-  double gmst_deg;               ///< Greenwich mean sidereal time
+  double right_ascension_deg;     ///< apparent, [0, 360)
+  double declination_deg;         ///< apparent
+  double apparent_longitude_deg;  ///< ecliptic
+  double distance_au;             ///< Earth-Sun distance
+  double gmst_deg;                ///< Greenwich mean sidereal time
   double subsolar_lat_deg, subsolar_lon_deg;
-  Vec3 direction_ecef;           ///< unit vector from the Earth's centre towards the Sun
+  Vec3 direction_ecef;  ///< unit vector from the Earth's centre towards the Sun
 };
 
 /// `julian_day` is the Julian Day of the instant (JD 2451545.0 = 2000-01-01T12:00).

@@ -1,8 +1,8 @@
 #include "nephos/noise/fractal_texture.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <limits>
 
 #include "nephos/core/error.hpp"
@@ -126,8 +126,7 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
-        raw[(static_cast<std::size_t>(k) * n + j) * n + i] =
-            static_cast<float>(eval(i * inv, j * inv, k * inv));
+        raw[(static_cast<std::size_t>(k) * n + j) * n + i] = static_cast<float>(eval(i * inv, j * inv, k * inv));
   const auto [lo_it, hi_it] = std::minmax_element(raw.begin(), raw.end());
   const float lo = *lo_it, span = std::max(*hi_it - lo, 1e-30f);
   Texture3D t(n);

@@ -1,8 +1,8 @@
 #include "nephos/optics/optics.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "nephos/core/error.hpp"
 
@@ -38,8 +38,8 @@ const std::vector<Band>& bands() {
   static const std::vector<Band> b{
       {"vis", "GOES-16 ABI band 2 (red)", 0.64, 0.59, 0.69, 1631.3351, false},
       {"nir", "GOES-16 ABI band 3 (veggie)", 0.865, 0.846, 0.885, 957.0699, false},
-      {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 10.35, 10.1, 10.6, solar_blackbody_irradiance(10.1, 10.6),
-       true},
+      {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 10.35, 10.1, 10.6,
+       solar_blackbody_irradiance(10.1, 10.6), true},
   };
   return b;
 }
@@ -127,13 +127,13 @@ OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_
     throw ValueError(fmt::format("water content {} g/m3 and effective radius {} um must be >= 0 and > 0",
                                  water_content_g_m3, r_e_um));
   const double rho = phase == Phase::water ? 1.0e6 : 0.917e6;  // density [g/m^3]
-  constexpr double q_ext = 2.0;                                 // geometric-optics limit
+  constexpr double q_ext = 2.0;                                // geometric-optics limit
   const double r_m = r_e_um * 1e-6;
   const double beta = 3.0 * water_content_g_m3 * q_ext / (4.0 * rho * r_m);
   // Anomalous diffraction: Q_abs(w) = 1 + 2 e^-w / w + 2 (e^-w - 1) / w^2, w = 8 pi n_i r / lambda.
   const double w = 8.0 * M_PI * imaginary_index(phase, b) * r_e_um / b.centre_um;
-  const double q_abs = w < 1e-4 ? (2.0 / 3.0) * w - w * w / 4.0
-                                : 1.0 + 2.0 * std::exp(-w) / w + 2.0 * std::expm1(-w) / (w * w);
+  const double q_abs =
+      w < 1e-4 ? (2.0 / 3.0) * w - w * w / 4.0 : 1.0 + 2.0 * std::exp(-w) / w + 2.0 * std::expm1(-w) / (w * w);
   return {beta, std::clamp(1.0 - q_abs / q_ext, 0.0, 1.0)};
 }
 

@@ -8,8 +8,8 @@
 namespace nephos::optics {
 
 // ---- Planck -------------------------------------------------------------------------------
-inline constexpr double c1_w_um4_m2_sr = 1.191042972e8;  ///< 2 h c^2 [W um^4 m^-2 sr^-1]
-inline constexpr double c2_um_k = 1.438776877e4;         ///< h c / k [um K]
+inline constexpr double c1_w_um4_m2_sr = 1.191042972e8;     ///< 2 h c^2 [W um^4 m^-2 sr^-1]
+inline constexpr double c2_um_k = 1.438776877e4;            ///< h c / k [um K]
 inline constexpr double stefan_boltzmann = 5.670374419e-8;  ///< [W m^-2 K^-4] (CODATA 2018)
 
 /// Spectral radiance B(lambda, T) [W m^-2 sr^-1 um^-1].
@@ -19,11 +19,11 @@ double brightness_temperature(double wavelength_um, double radiance);
 
 // ---- Sensor bands -------------------------------------------------------------------------
 struct Band {
-  std::string name;               ///< "vis", "nir", "lwir"
-  std::string description;        ///< e.g. "GOES-16 ABI band 2"
-  double centre_um, lo_um, hi_um; ///< central wavelength and band edges
-  double solar_irradiance;        ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
-  bool thermal;                   ///< thermal emission matters (report brightness temperature)
+  std::string name;                ///< "vis", "nir", "lwir"
+  std::string description;         ///< e.g. "GOES-16 ABI band 2"
+  double centre_um, lo_um, hi_um;  ///< central wavelength and band edges
+  double solar_irradiance;         ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
+  bool thermal;                    ///< thermal emission matters (report brightness temperature)
 };
 /// The built-in bands: vis (ABI 2, 0.64 um), nir (ABI 3, 0.86 um), lwir (ABI 13, 10.3 um).
 const std::vector<Band>& bands();

@@ -130,7 +130,8 @@ TEST(CloudOptics, GeometricOpticsExtinction) {
   EXPECT_LT(ir.single_scattering_albedo, 0.85);
   // Weak-absorption limit of ADT: 1 - omega = Q_abs / 2 = (8 pi / 3) n_i r / lambda.
   const double expected = 8 * M_PI / 3 * imaginary_index(Phase::water, band("nir")) * 10.0 / 0.865;
-  EXPECT_NEAR(1 - cloud_optics(Phase::water, 0.35, 10.0, band("nir")).single_scattering_albedo, expected, expected * 0.01);
+  EXPECT_NEAR(1 - cloud_optics(Phase::water, 0.35, 10.0, band("nir")).single_scattering_albedo, expected,
+              expected * 0.01);
   EXPECT_THROW(cloud_optics(Phase::ice, 0.01, 0.0, band("vis")), ValueError);
 }
 

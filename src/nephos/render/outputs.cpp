@@ -5,9 +5,9 @@
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 #include <limits>
 
 #include "nephos/core/atomic_file.hpp"
@@ -34,8 +34,10 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
     if (name != "latitude" && name != "longitude") nc.put_attribute(v, "coordinates", "latitude longitude");
     return v;
   };
-  const int lat = float_var("latitude", "degrees_north", "latitude of the nearest cloud surface or Earth point", "latitude");
-  const int lon = float_var("longitude", "degrees_east", "longitude of the nearest cloud surface or Earth point", "longitude");
+  const int lat =
+      float_var("latitude", "degrees_north", "latitude of the nearest cloud surface or Earth point", "latitude");
+  const int lon =
+      float_var("longitude", "degrees_east", "longitude of the nearest cloud surface or Earth point", "longitude");
   std::vector<int> rad, bt;
   for (std::size_t b = 0; b < img.bands.size(); ++b) {
     const optics::Band& band = optics::band(img.bands[b]);
@@ -48,7 +50,8 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
                                           "brightness_temperature")
                               : -1);
   }
-  const int top = float_var("cloud_top_altitude", "m", "altitude above mean sea level of the nearest cloud surface", "cloud_top_altitude");
+  const int top = float_var("cloud_top_altitude", "m", "altitude above mean sea level of the nearest cloud surface",
+                            "cloud_top_altitude");
   const int tau = float_var("cloud_optical_depth", "1", "visible (0.64 um) cloud optical depth along the line of sight",
                             "atmosphere_optical_thickness_due_to_cloud");
   const int type = nc.add_variable("cloud_type", io::NcType::i8, dims);
@@ -62,7 +65,8 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
   nc.put_attribute(io::NetcdfWriter::global, "source", meta.weather_source);
   nc.put_attribute(io::NetcdfWriter::global, "sensor", meta.sensor);
   nc.put_attribute(io::NetcdfWriter::global, "time", meta.time_iso);
-  nc.put_attribute(io::NetcdfWriter::global, "subsolar_point_deg", std::vector<double>{meta.sun_subsolar_lat_deg, meta.sun_subsolar_lon_deg});
+  nc.put_attribute(io::NetcdfWriter::global, "subsolar_point_deg",
+                   std::vector<double>{meta.sun_subsolar_lat_deg, meta.sun_subsolar_lon_deg});
   nc.put_attribute(io::NetcdfWriter::global, "seed", static_cast<double>(meta.seed));
   nc.put_attribute(io::NetcdfWriter::global, "ray_marching_steps", static_cast<double>(meta.steps));
   nc.put_attribute(io::NetcdfWriter::global, "texture_size", static_cast<double>(meta.texture_size));
@@ -94,7 +98,8 @@ void write_render_exr(const std::filesystem::path& path, const RenderImage& img)
     };
     for (std::size_t b = 0; b < img.bands.size(); ++b) {
       add("radiance." + img.bands[b], img.radiance[b]);
-      if (!img.brightness_temperature[b].empty()) add("brightness_temperature." + img.bands[b], img.brightness_temperature[b]);
+      if (!img.brightness_temperature[b].empty())
+        add("brightness_temperature." + img.bands[b], img.brightness_temperature[b]);
     }
     add("cloud_top_altitude", img.cloud_top_altitude_m);
     add("cloud_optical_depth", img.cloud_optical_depth);

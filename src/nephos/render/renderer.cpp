@@ -89,8 +89,7 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
     const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
     const int n = 1 + static_cast<int>(arc / shell.skip_radius_rad());
     bool possible = false;
-    for (int i = 0; i <= n && !possible; ++i)
-      possible = shell.may_have_cloud(o + path.t_at(path.length() * i / n) * d);
+    for (int i = 0; i <= n && !possible; ++i) possible = shell.may_have_cloud(o + path.t_at(path.length() * i / n) * d);
     if (!possible) return hit;
   }
   const double len = path.length(), ds = len / steps, thr = shell.threshold();
@@ -188,14 +187,16 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
     for (const auto* b : bands)
       props.push_back(optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
                                            shell.params().effective_radius_um, *b));
-    const optics::OpticalProperties vis_props = optics::cloud_optics(
-        shell.params().phase, shell.params().water_content_g_m3, shell.params().effective_radius_um, optics::band("vis"));
+    const optics::OpticalProperties vis_props =
+        optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
+                             shell.params().effective_radius_um, optics::band("vis"));
 #pragma omp parallel for schedule(dynamic, 4)
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) {
         const std::size_t px = static_cast<std::size_t>(y) * w + x;
         const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
-        const ShellHit hit = march_shell(shell, sensor.position, d, t_earth[px], params.steps, params.bisection_iterations);
+        const ShellHit hit =
+            march_shell(shell, sensor.position, d, t_earth[px], params.steps, params.bisection_iterations);
         if (!hit.hit) continue;
         Layer& L = layers[px * ns + si];
         L.t = static_cast<float>(hit.t);
@@ -252,7 +253,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
           if (!std::isnan(v)) t_surf = v;
         }
         for (std::size_t b = 0; b < nb; ++b)
-          bg[b] = params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b].forward(t_surf);
+          bg[b] =
+              params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b].forward(t_surf);
       }
       const Layer* pl = &layers[px * ns];
       for (std::size_t s = 0; s < ns; ++s) order[s] = s;

@@ -18,10 +18,10 @@
 namespace nephos::render {
 
 struct RenderParams {
-  int steps = 25;                     ///< ray-marching steps through a shell (--steps)
-  int bisection_iterations = 7;       ///< refinement of the first crossing (step / 128)
-  double indirect_fraction = 0.3;     ///< share of scattered sunlight re-emitted diffusely by all facets
-  double surface_albedo = 0.06;       ///< Lambertian albedo of the ground in solar bands (dark ocean)
+  int steps = 25;                         ///< ray-marching steps through a shell (--steps)
+  int bisection_iterations = 7;           ///< refinement of the first crossing (step / 128)
+  double indirect_fraction = 0.3;         ///< share of scattered sunlight re-emitted diffusely by all facets
+  double surface_albedo = 0.06;           ///< Lambertian albedo of the ground in solar bands (dark ocean)
   double surface_temperature_k = 288.15;  ///< used where the weather gives none
   std::vector<std::string> bands{"vis", "nir", "lwir"};
 };
@@ -32,10 +32,10 @@ struct RenderImage {
   std::vector<std::string> bands;
   std::vector<std::vector<float>> radiance;                ///< per band [W m^-2 sr^-1 um^-1]
   std::vector<std::vector<float>> brightness_temperature;  ///< per band [K]; empty for solar bands
-  std::vector<float> cloud_top_altitude_m;  ///< nearest cloud surface; NaN where none
-  std::vector<float> cloud_optical_depth;   ///< visible optical depth along the line of sight, all types
-  std::vector<std::int8_t> cloud_type;      ///< nearest type (0..3), -1 none
-  std::vector<float> latitude_deg, longitude_deg;  ///< nearest cloud or Earth point; NaN for space
+  std::vector<float> cloud_top_altitude_m;                 ///< nearest cloud surface; NaN where none
+  std::vector<float> cloud_optical_depth;                  ///< visible optical depth along the line of sight, all types
+  std::vector<std::int8_t> cloud_type;                     ///< nearest type (0..3), -1 none
+  std::vector<float> latitude_deg, longitude_deg;          ///< nearest cloud or Earth point; NaN for space
   std::vector<std::pair<std::string, double>> seconds_per_type;
 };
 

@@ -57,9 +57,11 @@ TEST(Marcher, HomogeneousSlabDepthIsTheChord) {
   ASSERT_TRUE(v.hit);
   EXPECT_NEAR(v.depth_m, 2000.0, 1e-6);  // interpolation is exact for a constant field
   EXPECT_NEAR(glm::length(v.position) - earth::radius_m, 3000.0, 1e-6);
-  const earth::Vec3 d = glm::normalize(-std::cos(60 * earth::deg) * up + std::sin(60 * earth::deg) * earth::local_east(up));
+  const earth::Vec3 d =
+      glm::normalize(-std::cos(60 * earth::deg) * up + std::sin(60 * earth::deg) * earth::local_east(up));
   const ShellHit sl = march_shell(s, o, d, ground(d), 25, 12);
-  const auto outer = earth::ray_sphere(o, d, earth::radius_m + 3000), inner = earth::ray_sphere(o, d, earth::radius_m + 1000);
+  const auto outer = earth::ray_sphere(o, d, earth::radius_m + 3000),
+             inner = earth::ray_sphere(o, d, earth::radius_m + 1000);
   ASSERT_TRUE(sl.hit && outer && inner);
   EXPECT_NEAR(sl.depth_m, inner->t0 - outer->t0, 1e-6);
 }
@@ -102,7 +104,8 @@ TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
   const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
   const double tau = props.extinction_per_m * 2000.0;
   const auto slab = optics::two_stream_slab(tau, props.single_scattering_albedo);
-  const double expected = (1 - slab.reflectance - slab.transmittance) * optics::band_planck(b, optics::standard_atmosphere_temperature_k(3000)) +
+  const double expected = (1 - slab.reflectance - slab.transmittance) *
+                              optics::band_planck(b, optics::standard_atmosphere_temperature_k(3000)) +
                           std::exp(-tau) * optics::band_planck(b, 290);
   // The renderer tabulates Planck at 0.01 K: relative error < 1e-5.
   EXPECT_NEAR(img.radiance[0][0] / expected, 1.0, 1e-5);
@@ -142,9 +145,13 @@ TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
   set_threads(0);
   for (std::size_t k = 0; k < a.radiance.size(); ++k)
     EXPECT_EQ(std::memcmp(a.radiance[k].data(), b.radiance[k].data(), a.radiance[k].size() * sizeof(float)), 0);
-  EXPECT_EQ(std::memcmp(a.cloud_top_altitude_m.data(), b.cloud_top_altitude_m.data(), a.cloud_top_altitude_m.size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(a.cloud_top_altitude_m.data(), b.cloud_top_altitude_m.data(),
+                        a.cloud_top_altitude_m.size() * sizeof(float)),
+            0);
   // Sanity: clouds in the disc, none in space (corners).
-  EXPECT_GT(std::count(a.cloud_type.begin(), a.cloud_type.end(), 1) + std::count(a.cloud_type.begin(), a.cloud_type.end(), 3), 100);
+  EXPECT_GT(
+      std::count(a.cloud_type.begin(), a.cloud_type.end(), 1) + std::count(a.cloud_type.begin(), a.cloud_type.end(), 3),
+      100);
   EXPECT_EQ(a.cloud_type[0], -1);
 }
 

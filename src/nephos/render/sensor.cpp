@@ -1,7 +1,7 @@
 #include "nephos/render/sensor.hpp"
 
-#include <filesystem>
 #include <fmt/format.h>
+#include <filesystem>
 #include <sstream>
 #include <vector>
 
@@ -11,7 +11,8 @@ namespace nephos::render {
 namespace {
 Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth::Vec3& up_hint, double fov_deg,
                 int width, int height) {
-  if (!(fov_deg > 0 && fov_deg < 179)) throw ValueError(fmt::format("field of view {} deg must be in (0, 179)", fov_deg), {.key = "fov"});
+  if (!(fov_deg > 0 && fov_deg < 179))
+    throw ValueError(fmt::format("field of view {} deg must be in (0, 179)", fov_deg), {.key = "fov"});
   if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "--size"});
   Sensor s;
   s.position = pos;
@@ -40,7 +41,8 @@ std::vector<double> numbers(const std::string& list, std::size_t count, const st
       throw ValueError(fmt::format("'{}' in sensor '{}' is not a number", item, spec), {.key = "--sensor"});
     }
   }
-  if (v.size() != count) throw ValueError(fmt::format("sensor '{}' needs {} comma-separated numbers", spec, count), {.key = "--sensor"});
+  if (v.size() != count)
+    throw ValueError(fmt::format("sensor '{}' needs {} comma-separated numbers", spec, count), {.key = "--sensor"});
   return v;
 }
 }  // namespace
@@ -57,7 +59,8 @@ Sensor Sensor::nadir(double lat_deg, double lon_deg, double altitude_m, double f
   const earth::Vec3 pos = earth::ecef({lat_deg, lon_deg, altitude_m});
   const earth::Vec3 up = glm::normalize(pos);
   Sensor s = oriented(pos, -up, earth::local_north(up), fov_deg, width, height);
-  s.description = fmt::format("nadir from {:g} deg, {:g} deg, {:g} km, {:g} deg field of view", lat_deg, lon_deg, altitude_m / 1e3, fov_deg);
+  s.description = fmt::format("nadir from {:g} deg, {:g} deg, {:g} km, {:g} deg field of view", lat_deg, lon_deg,
+                              altitude_m / 1e3, fov_deg);
   return s;
 }
 

@@ -12,9 +12,9 @@ namespace nephos::render {
 inline constexpr double geostationary_altitude_m = 35786e3;
 
 struct Sensor {
-  earth::Vec3 position;          ///< ECEF [m]
+  earth::Vec3 position;            ///< ECEF [m]
   earth::Vec3 forward, right, up;  ///< orthonormal attitude (up: image top)
-  double fov_deg = 20;           ///< full horizontal field of view
+  double fov_deg = 20;             ///< full horizontal field of view
   int width = 1000, height = 1000;
   std::string description;
 

@@ -23,7 +23,8 @@ TEST(Sensor, GeostationaryFullDisc) {
   // r = 200 tan(limb) / tan(fov/2); 1 % covers the pixelisation of the edge.
   int earth_px = 0;
   for (int y = 0; y < 400; ++y)
-    for (int x = 0; x < 400; ++x) earth_px += earth::ray_sphere(s.position, s.ray(x + 0.5, y + 0.5), earth::radius_m) ? 1 : 0;
+    for (int x = 0; x < 400; ++x)
+      earth_px += earth::ray_sphere(s.position, s.ray(x + 0.5, y + 0.5), earth::radius_m) ? 1 : 0;
   const double r_px = 200 * std::tan(limb * earth::deg) / std::tan(s.fov_deg / 2 * earth::deg);
   EXPECT_NEAR(earth_px / (M_PI * r_px * r_px), 1.0, 0.01);
   // North is up: the top-centre pixel sees the northern hemisphere.

@@ -59,8 +59,8 @@ struct Geometry {
 // share one Geometry, so per-point coordinates are computed once per file, not per message.
 std::string geometry_key(codes_handle* h) {
   std::string key;
-  for (const char* k : {"Ni", "Nj", "iScansNegatively", "jScansPositively", "jPointsAreConsecutive",
-                        "alternativeRowScanning"})
+  for (const char* k :
+       {"Ni", "Nj", "iScansNegatively", "jScansPositively", "jPointsAreConsecutive", "alternativeRowScanning"})
     key += std::to_string(get_long(h, k, -1)) + ",";
   for (const char* k : {"latitudeOfFirstGridPointInDegrees", "longitudeOfFirstGridPointInDegrees",
                         "latitudeOfLastGridPointInDegrees", "longitudeOfLastGridPointInDegrees"}) {
@@ -239,7 +239,7 @@ class GribReader final : public WeatherReader {
     bool have_time = false;
     std::set<std::pair<int, long long>> seen;  // (field, pressure in mPa) duplicates
     std::map<std::string, Geometry> geometry_cache;
-    std::set<std::string> held;                // what the file has besides pressure-level fields
+    std::set<std::string> held;  // what the file has besides pressure-level fields
 
     auto check_grid = [&](const LatLonGrid& g, const std::string& field) {
       if (!grid) {
