@@ -1,0 +1,60 @@
+#pragma once
+// The D3Q19 lattice: the rest vector, the 6 axis directions and the 12 face diagonals of the
+// unit cube {-1,0,1}^3 (no corners), in the order of the lattice-Boltzmann cloud seed:
+// c_0 = 0, c_1..c_6 the axes, c_7..c_18 the diagonals. Opposite pairs are adjacent (1,2), (3,4)...
+#include <array>
+
+namespace nephos::lbm::d3q19 {
+
+inline constexpr int q = 19;
+inline constexpr std::array<int, q> cx{0, 1, -1, 0, 0, 0, 0, 1, -1, 1, -1, 1, -1, 1, -1, 0, 0, 0, 0};
+inline constexpr std::array<int, q> cy{0, 0, 0, 1, -1, 0, 0, 1, -1, -1, 1, 0, 0, 0, 0, 1, -1, 1, -1};
+inline constexpr std::array<int, q> cz{0, 0, 0, 0, 0, 1, -1, 0, 0, 0, 0, 1, -1, -1, 1, 1, -1, -1, 1};
+inline constexpr std::array<int, q> opposite{0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15, 18, 17};
+
+/// Isotropic gradient weights w_i / c_s^2 with the standard weights (1/18 axis, 1/36 diagonal)
+/// and c_s^2 = 1/3: grad(phi) ~ sum_i g_i phi(x + c_i) c_i.
+inline constexpr double gradient_weight(int i) { return i == 0 ? 0.0 : i <= 6 ? 3.0 / 18.0 : 3.0 / 36.0; }
+
+/// The equilibrium of the seed (section 3, after eq. 6) with rest fraction d and unit lattice
+/// speed v = lambda / tau = 1:
+///   f_0 = rho (d - u^2/2)
+///   f_i = rho ((1-d)/12 + c.u/6 + (c.u)^2/4 - u^2/12)   axis
+///   f_i = rho ((1-d)/24 + c.u/12 + (c.u)^2/8 - u^2/24)  diagonal
+/// d = 1/3 gives the standard D3Q19 weights; the pressure is p = rho (1 - d)/2 (eq. 19).
+template <class T>
+inline void equilibrium(T rho, T ux, T uy, T uz, T d, T* feq) {
+  const T u2 = ux * ux + uy * uy + uz * uz;
+  const T a = (T(1) - d) / T(12), b = (T(1) - d) / T(24);
+  feq[0] = rho * (d - T(0.5) * u2);
+  for (int i = 1; i < q; ++i) {
+    const T cu = T(cx[static_cast<std::size_t>(i)]) * ux + T(cy[static_cast<std::size_t>(i)]) * uy +
+                 T(cz[static_cast<std::size_t>(i)]) * uz;
+    feq[i] = i <= 6 ? rho * (a + cu / T(6) + cu * cu / T(4) - u2 / T(12))
+                    : rho * (b + cu / T(12) + cu * cu / T(8) - u2 / T(24));
+  }
+}
+
+/// Rest weight w_i: the equilibrium of unit density at rest (d, (1-d)/12, (1-d)/24).
+template <class T>
+inline T rest_weight(int i, T d) {
+  return i == 0 ? d : i <= 6 ? (T(1) - d) / T(12) : (T(1) - d) / T(24);
+}
+
+/// The equilibrium minus w_i * rho_ref ("DDF shifting", as in FluidX3D): populations are
+/// stored as deviations from the rest state of density rho_ref, which keeps FP32 rounding
+/// relative to the deviation, not to the density. drho = rho - rho_ref.
+template <class T>
+inline void equilibrium_shifted(T drho, T rho, T ux, T uy, T uz, T d, T* out) {
+  const T u2 = ux * ux + uy * uy + uz * uz;
+  out[0] = d * drho - rho * T(0.5) * u2;
+  const T a = (T(1) - d) / T(12), b = (T(1) - d) / T(24);
+  for (int i = 1; i < q; ++i) {
+    const T cu = T(cx[static_cast<std::size_t>(i)]) * ux + T(cy[static_cast<std::size_t>(i)]) * uy +
+                 T(cz[static_cast<std::size_t>(i)]) * uz;
+    out[i] = i <= 6 ? a * drho + rho * (cu / T(6) + cu * cu / T(4) - u2 / T(12))
+                    : b * drho + rho * (cu / T(12) + cu * cu / T(8) - u2 / T(24));
+  }
+}
+
+}  // namespace nephos::lbm::d3q19

@@ -1,0 +1,51 @@
+#pragma once
+// Lattice geometry and population storage shared by the lattice-Boltzmann solvers.
+//
+// Layout (after FluidX3D's structure of arrays): population i of cell n at f[i * cells + n],
+// cells ordered x fastest, then y, then z (z is up). Two copies (A/B) for pull streaming: a
+// step reads A at x - c_i and writes B at x, so each population is read once and written once
+// per cell update: 19 * 4 B * 2 = 152 bytes per cell per component in FP32.
+// Populations are stored shifted by their rest value w_i rho_ref (d3q19::equilibrium_shifted).
+// Boundaries: periodic in x and y; in z periodic or walls (halfway bounce-back: a population
+// that would come from outside is the opposite population of the same cell).
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "nephos/lbm/d3q19.hpp"
+
+namespace nephos::lbm {
+
+struct Grid3 {
+  int nx = 0, ny = 0, nz = 0;
+  std::size_t cells() const { return static_cast<std::size_t>(nx) * ny * nz; }
+  std::size_t index(int x, int y, int z) const { return (static_cast<std::size_t>(z) * ny + y) * nx + x; }
+  bool operator==(const Grid3&) const = default;
+  /// "NXxNYxNZ"
+  std::string describe() const;
+  /// Parses "NXxNYxNZ" (each 4..4096); ValueError otherwise.
+  static Grid3 parse(const std::string& text);
+};
+
+enum class ZBoundary { periodic, walls };
+
+/// Calls body(row_sources, y, z) for every row with, per direction i, the pointer to the
+/// source row of population i (already shifted so that element x is the source of cell x,
+/// except at x = 0 and x = nx-1 where the caller uses src_x()). Rows are distributed over
+/// OpenMP threads statically (deterministic).
+struct RowSources {
+  std::array<const float*, d3q19::q> row{};  ///< source row start for direction i
+  std::array<int, d3q19::q> shift{};         ///< source x = x - shift[i] (0 for bounce-back)
+  int nx = 0;
+  const float* at(int i, int x) const {
+    int sx = x - shift[static_cast<std::size_t>(i)];
+    sx = sx < 0 ? sx + nx : (sx >= nx ? sx - nx : sx);
+    return row[static_cast<std::size_t>(i)] + sx;
+  }
+};
+
+/// The pull-streaming sources of row (y, z) for populations stored in `f`.
+RowSources row_sources(const Grid3& g, const float* f, int y, int z, ZBoundary zb);
+
+}  // namespace nephos::lbm
