@@ -207,11 +207,47 @@ class Render(unittest.TestCase):
                 self.assertFalse(out.exists(), args)
 
 
+class Lbm(unittest.TestCase):
+    def test_run_checkpoint_and_resume_are_identical(self):
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "12", "--out", d / "a")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn("12 steps", r.stdout)
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "6", "--checkpoint-every", "6", "--out", d / "b")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--out", d / "c")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")
+            self.assertEqual(a["vapour_density"].dimensions, ("z", "y", "x"))
+            for v in ("vapour_density", "temperature"):
+                self.assertTrue(np.array_equal(a[v][:], c[v][:]), v)
+
+    def test_bad_input(self):
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "out"
+            r = run("lbm", "--grid", "16x16", "--out", out)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("NXxNYxNZ", r.stderr)
+            r = run("lbm", "--resume", Path(d) / "missing.bin", "--out", out)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("missing.bin", r.stderr)
+            self.assertFalse(out.exists())
+
+
 class Bench(unittest.TestCase):
     def test_render_bench_smoke(self):
         r = run("bench", "render", "--quick", "--repeat", "1")
         self.assertEqual(r.returncode, 0, r.stderr)
         for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view"):
+            self.assertIn(anchor, r.stdout)
+
+    def test_lbm_bench_smoke(self):
+        r = run("bench", "lbm", "--size", "32", "--repeat", "2")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "peak resident memory"):
             self.assertIn(anchor, r.stdout)
 
 

@@ -9,6 +9,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "lbm_bench.hpp"
 #include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
@@ -18,6 +19,8 @@
 #include "nephos/core/progress.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
+#include "nephos/lbm/lbm_io.hpp"
+#include "nephos/lbm/water_model.hpp"
 #include "nephos/render/outputs.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
@@ -209,6 +212,78 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   return 0;
 }
 
+struct LbmOptions {
+  std::string grid = "128x128x128";
+  int silos = -1;  // < 0: the parameter file's (default 4)
+  long iterations = 20;
+  long checkpoint_every = 0;
+  std::string resume;
+  std::string config;
+  std::string out = "out/lbm";
+};
+
+int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
+  const auto t_start = std::chrono::steady_clock::now();
+  if (o.iterations < 0) throw ValueError("must be >= 0", {.key = "--iterations"});
+  lbm::WaterModelParams params;
+  if (!o.config.empty()) {
+    const ParamDict dict = ParamDict::from_file(o.config);
+    params = lbm::WaterModelParams::from(dict);
+    dict.check_unused();
+  }
+  if (o.silos >= 0) params.silos = o.silos;
+  const fs::path out(o.out);
+  lbm::WaterModel model =
+      o.resume.empty() ? lbm::WaterModel(lbm::Grid3::parse(o.grid), params) : lbm::WaterModel::load(o.resume);
+  if (o.resume.empty()) {
+    model.initialise(lbm::make_silos(model.grid(), params, g.seed), g.seed);
+    spdlog::info("water model {} with {} silos (seed {})", model.grid().describe(), params.silos, g.seed);
+  } else {
+    spdlog::info("resumed {} at step {} from {}", model.grid().describe(), model.steps_done(), o.resume);
+  }
+  ensure_directory(out);
+  const auto& grid = model.grid();
+  auto check = [&] {
+    std::string what;
+    std::size_t cell = 0;
+    if (model.check(what, cell)) return;
+    const auto ck = out / "checkpoint_failed.bin";
+    model.save(ck);
+    const auto x = cell % static_cast<std::size_t>(grid.nx),
+               y = cell / static_cast<std::size_t>(grid.nx) % static_cast<std::size_t>(grid.ny),
+               z = cell / (static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny));
+    throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={}); state saved to {}", model.steps_done(),
+                                   what, x, y, z, ck.string()));
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const long first = model.steps_done();
+  {
+    Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
+    while (model.steps_done() < o.iterations) {
+      model.step();
+      progress.advance();
+      if (model.steps_done() % 10 == 0) check();
+      if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0) model.save(out / "checkpoint.bin");
+    }
+  }
+  check();
+  const double t_water = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto vapour = model.vapour(), temperature = model.temperature();
+  lbm::write_lattice_netcdf(
+      out / "lbm.nc", grid,
+      {{"vapour_density", "water vapour density (lattice units; condensation above rho10)", "1", &vapour},
+       {"temperature", "temperature (lattice units)", "1", &temperature}},
+      {{"title", "nephos lattice-Boltzmann convective cloud"},
+       {"steps", std::to_string(model.steps_done())},
+       {"seed", std::to_string(g.seed)}});
+  const long done = model.steps_done() - first;
+  std::cout << fmt::format("water model {}: {} steps in {:.2f} s ({:.3f} s/step, {} threads)\n", grid.describe(), done,
+                           t_water, done > 0 ? t_water / static_cast<double>(done) : 0.0, thread_count());
+  spdlog::info("wrote {} in {:.1f} s", (out / "lbm.nc").string(),
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -253,6 +328,16 @@ int main(int argc, char** argv) {
   rend->add_option("--config", ro.config, "TOML with [clouds.*], [textures], [displacement], [masks.*] parameters");
   rend->add_option("--out", ro.out, "Output directory")->capture_default_str();
 
+  LbmOptions lo;
+  auto* lbmc = app.add_subcommand("lbm", "Lattice-Boltzmann convective cloud (water model stage)");
+  lbmc->add_option("--grid", lo.grid, "Lattice NXxNYxNZ (z up)")->capture_default_str();
+  lbmc->add_option("--silos", lo.silos, "Number of initial vapour silos (default 4)");
+  lbmc->add_option("--iterations", lo.iterations, "Total water-model steps")->capture_default_str();
+  lbmc->add_option("--checkpoint-every", lo.checkpoint_every, "Write out/checkpoint.bin every N steps (0: never)");
+  lbmc->add_option("--resume", lo.resume, "Continue from a checkpoint file");
+  lbmc->add_option("--config", lo.config, "TOML with a [water] table");
+  lbmc->add_option("--out", lo.out, "Output directory")->capture_default_str();
+
   auto* bench = app.add_subcommand("bench", "Benchmarks that print measured figures beside their anchors");
   bench->require_subcommand(1);
   bench::RenderBenchOptions rbo;
@@ -261,6 +346,10 @@ int main(int argc, char** argv) {
   bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")
       ->capture_default_str();
   bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
+  bench::LbmBenchOptions lbo;
+  auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
+  bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
+  bench_lbm->add_option("--repeat", lbo.repeat, "Timed repetitions (median reported)")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -280,6 +369,8 @@ int main(int argc, char** argv) {
     if (*masks) return run_masks(mo, g);
     if (*rend) return run_render(ro, g);
     if (*bench_render) return bench::run_render_bench(rbo, g.seed);
+    if (*lbmc) return run_lbm(lo, g);
+    if (*bench_lbm) return bench::run_lbm_bench(lbo, g.seed);
   } catch (const Error& e) {
     std::cerr << "nephos: error: " << e.what() << "\n";
     return exit_input_error;

@@ -24,32 +24,71 @@ void BgkSolver::initialise(double rho) {
 
 void BgkSolver::step() {
   const std::size_t n = g_.cells();
+  const int nx = g_.nx;
   const float omega = static_cast<float>(1.0 / xi_), d = static_cast<float>(d_);
-  const float fx = static_cast<float>(force_[0]), fy = static_cast<float>(force_[1]), fz = static_cast<float>(force_[2]);
   const float shift = static_cast<float>(xi_);  // u_eq = u + xi F / rho (eq. 10, tau = 1)
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int z = 0; z < g_.nz; ++z)
-    for (int y = 0; y < g_.ny; ++y) {
-      const RowSources src = row_sources(g_, a_.data(), y, z, zb_);
-      float* out = b_.data() + g_.index(0, y, z);
-      for (int x = 0; x < g_.nx; ++x) {
-        float f[d3q19::q];
-        float drho = 0, jx = 0, jy = 0, jz = 0;  // populations are shifted by w_i (rho_ref = 1)
+  const float sfx = shift * static_cast<float>(force_[0]), sfy = shift * static_cast<float>(force_[1]),
+              sfz = shift * static_cast<float>(force_[2]);
+  const float wa = (1.0f - d) / 12.0f, wb = (1.0f - d) / 24.0f;
+#pragma omp parallel
+  {
+    // Per-thread row buffers: populations (19 x nx) and the row's moments.
+    std::vector<float> f(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx));
+    std::vector<float> drho_v(static_cast<std::size_t>(nx)), ux_v(drho_v.size()), uy_v(drho_v.size()),
+        uz_v(drho_v.size()), rho_v(drho_v.size());
+#pragma omp for collapse(2) schedule(static)
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = 0; y < g_.ny; ++y) {
+        gather_row(row_sources(g_, a_.data(), y, z, zb_), f.data());
+        float* drho = drho_v.data();
+        float* ux = ux_v.data();
+        float* uy = uy_v.data();
+        float* uz = uz_v.data();
+        float* rho = rho_v.data();
+        auto F = [&](int i) { return f.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx); };
+        for (int x = 0; x < nx; ++x) drho[x] = ux[x] = uy[x] = uz[x] = 0;
+#pragma GCC unroll 19
         for (int i = 0; i < d3q19::q; ++i) {
-          f[i] = *src.at(i, x);
-          drho += f[i];
-          jx += f[i] * static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
-          jy += f[i] * static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
-          jz += f[i] * static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
+          const float* fi = F(i);
+          const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
+          const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
+          const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
+          for (int x = 0; x < nx; ++x) {
+            drho[x] += fi[x];
+            ux[x] += cx * fi[x];
+            uy[x] += cy * fi[x];
+            uz[x] += cz * fi[x];
+          }
         }
-        const float rho = 1.0f + drho, inv = 1.0f / rho;
-        float feq[d3q19::q];
-        d3q19::equilibrium_shifted<float>(drho, rho, (jx + shift * fx) * inv, (jy + shift * fy) * inv,
-                                          (jz + shift * fz) * inv, d, feq);
-        for (int i = 0; i < d3q19::q; ++i)
-          out[static_cast<std::size_t>(i) * n + static_cast<std::size_t>(x)] = f[i] - omega * (f[i] - feq[i]);
+        for (int x = 0; x < nx; ++x) {  // populations are shifted by w_i (rho_ref = 1)
+          rho[x] = 1.0f + drho[x];
+          const float inv = 1.0f / rho[x];
+          ux[x] = (ux[x] + sfx) * inv;
+          uy[x] = (uy[x] + sfy) * inv;
+          uz[x] = (uz[x] + sfz) * inv;
+        }
+        float* out = b_.data() + g_.index(0, y, z);
+#pragma GCC unroll 19
+        for (int i = 0; i < d3q19::q; ++i) {
+          const float* fi = F(i);
+          float* o = out + static_cast<std::size_t>(i) * n;
+          const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
+          const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
+          const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
+          // Shifted equilibrium (d3q19::equilibrium_shifted), written out per direction class.
+          const float w = i == 0 ? d : i <= 6 ? wa : wb;
+          const float k1 = i == 0 ? 0.0f : i <= 6 ? 1.0f / 6.0f : 1.0f / 12.0f;
+          const float k2 = i == 0 ? 0.0f : i <= 6 ? 0.25f : 0.125f;
+          const float k3 = i == 0 ? 0.5f : i <= 6 ? 1.0f / 12.0f : 1.0f / 24.0f;
+          for (int x = 0; x < nx; ++x) {
+            const float cu = cx * ux[x] + cy * uy[x] + cz * uz[x];
+            const float u2 = ux[x] * ux[x] + uy[x] * uy[x] + uz[x] * uz[x];
+            const float feq = w * drho[x] + rho[x] * (k1 * cu + k2 * cu * cu - k3 * u2);
+            o[x] = fi[x] - omega * (fi[x] - feq);
+          }
+        }
       }
-    }
+  }
   a_.swap(b_);
 }
 

@@ -16,7 +16,8 @@ Grid3 Grid3::parse(const std::string& text) {
   if (!std::regex_match(text, m, re)) throw ValueError("expected NXxNYxNZ, got '" + text + "'", {.key = "--grid"});
   Grid3 g{std::stoi(m[1]), std::stoi(m[2]), std::stoi(m[3])};
   for (int n : {g.nx, g.ny, g.nz})
-    if (n < 4 || n > 4096) throw ValueError("each grid dimension must be 4..4096, got '" + text + "'", {.key = "--grid"});
+    if (n < 4 || n > 4096)
+      throw ValueError("each grid dimension must be 4..4096, got '" + text + "'", {.key = "--grid"});
   return g;
 }
 

@@ -48,4 +48,25 @@ struct RowSources {
 /// The pull-streaming sources of row (y, z) for populations stored in `f`.
 RowSources row_sources(const Grid3& g, const float* f, int y, int z, ZBoundary zb);
 
+/// Gathers the streamed populations of a row into a contiguous buffer: out[i * nx + x] is the
+/// population i arriving at cell x (periodic in x). One memcpy-like pass per direction, so the
+/// collision loops that follow run over x with unit stride and vectorise.
+inline void gather_row(const RowSources& src, float* out) {
+  const int nx = src.nx;
+  for (int i = 0; i < d3q19::q; ++i) {
+    const float* r = src.row[static_cast<std::size_t>(i)];
+    float* o = out + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx);
+    const int s = src.shift[static_cast<std::size_t>(i)];
+    if (s == 0) {
+      for (int x = 0; x < nx; ++x) o[x] = r[x];
+    } else if (s == 1) {
+      o[0] = r[nx - 1];
+      for (int x = 1; x < nx; ++x) o[x] = r[x - 1];
+    } else {
+      for (int x = 0; x < nx - 1; ++x) o[x] = r[x + 1];
+      o[nx - 1] = r[0];
+    }
+  }
+}
+
 }  // namespace nephos::lbm

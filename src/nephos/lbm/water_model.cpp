@@ -1,9 +1,9 @@
 #include "nephos/lbm/water_model.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <fmt/format.h>
 #include <fstream>
 
 #include "nephos/core/atomic_file.hpp"
@@ -34,7 +34,8 @@ WaterModelParams WaterModelParams::from(const ParamDict& dict) {
   p.vapour_background = m.get("vapour_background", p.vapour_background);
   if (!(p.xi_vapour > 0.5) || !(p.xi_temperature > 0.5))
     throw ConfigError("relaxation times must exceed 1/2", {.file = dict.source(), .key = "water.xi_*"});
-  if (p.rest_fraction < 0 || p.rest_fraction > 1) throw ConfigError("must be in [0, 1]", {.file = dict.source(), .key = "water.rest_fraction"});
+  if (p.rest_fraction < 0 || p.rest_fraction > 1)
+    throw ConfigError("must be in [0, 1]", {.file = dict.source(), .key = "water.rest_fraction"});
   return p;
 }
 
@@ -79,7 +80,8 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
           dx = std::min(dx, g_.nx - dx);
           dy = std::min(dy, g_.ny - dy);
           const double zc = z + 0.5;
-          const double dist = zc <= s.height ? std::hypot(dx, dy) : std::sqrt(dx * dx + dy * dy + (zc - s.height) * (zc - s.height));
+          const double dist =
+              zc <= s.height ? std::hypot(dx, dy) : std::sqrt(dx * dx + dy * dy + (zc - s.height) * (zc - s.height));
           double v;
           if (dist <= s.radius) {
             v = p_.rho10 * (0.99 + 0.02 * uniform01(seed, 0x7a90, cell));
@@ -89,12 +91,14 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
           }
           vapour = std::max(vapour, v);
         }
-        const double temp = p_.temperature_bottom +
-                            (p_.temperature_top - p_.temperature_bottom) * (g_.nz > 1 ? static_cast<double>(z) / (g_.nz - 1) : 0.0);
+        const double temp = p_.temperature_bottom + (p_.temperature_top - p_.temperature_bottom) *
+                                                        (g_.nz > 1 ? static_cast<double>(z) / (g_.nz - 1) : 0.0);
         float feq[d3q19::q];
-        d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0, 0, 0, d, feq);
+        d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0,
+                                          0, 0, d, feq);
         for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
-        d3q19::equilibrium_shifted<float>(static_cast<float>(temp - reference(p_, 1)), static_cast<float>(temp), 0, 0, 0, d, feq);
+        d3q19::equilibrium_shifted<float>(static_cast<float>(temp - reference(p_, 1)), static_cast<float>(temp), 0, 0,
+                                          0, d, feq);
         for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
       }
   step_ = 0;
@@ -124,7 +128,8 @@ void WaterModel::step() {
         const float ref = static_cast<float>(reference(p_, c));
         for (int x = 0; x < g_.nx; ++x) rho[x] += ref;
         if (c == 0)
-          for (int x = 0; x < g_.nx; ++x) psi1_[base + static_cast<std::size_t>(x)] = rho10 * (1.0f - std::exp(-rho[x] / rho10));
+          for (int x = 0; x < g_.nx; ++x)
+            psi1_[base + static_cast<std::size_t>(x)] = rho10 * (1.0f - std::exp(-rho[x] / rho10));
       }
 
   // Pass 2: forces, equilibrium velocities, collision.
@@ -142,11 +147,14 @@ void WaterModel::step() {
           const auto iu = static_cast<std::size_t>(i);
           const int sx = (x + d3q19::cx[iu] + g_.nx) % g_.nx, sy = (y + d3q19::cy[iu] + g_.ny) % g_.ny;
           int sz = z + d3q19::cz[iu];
-          if (p_.periodic_z) sz = (sz + g_.nz) % g_.nz;
-          else sz = std::clamp(sz, 0, g_.nz - 1);
+          if (p_.periodic_z)
+            sz = (sz + g_.nz) % g_.nz;
+          else
+            sz = std::clamp(sz, 0, g_.nz - 1);
           const std::size_t nb = g_.index(sx, sy, sz);
           const double w = d3q19::gradient_weight(i);
-          const double c3[3] = {static_cast<double>(d3q19::cx[iu]), static_cast<double>(d3q19::cy[iu]), static_cast<double>(d3q19::cz[iu])};
+          const double c3[3] = {static_cast<double>(d3q19::cx[iu]), static_cast<double>(d3q19::cy[iu]),
+                                static_cast<double>(d3q19::cz[iu])};
           for (int a = 0; a < 3; ++a) {
             g1[a] += w * psi1_[nb] * c3[a];
             g2[a] += w * rho_[1][nb] * c3[a];
@@ -200,7 +208,8 @@ void WaterModel::step() {
         for (int x = 0; x < g_.nx; ++x) {
           const std::size_t cell = g_.index(x, y, z);
           float feq[d3q19::q];
-          d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0, 0, d, feq);
+          d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0,
+                                            0, d, feq);
           for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
           d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, d, feq);
           for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
@@ -259,7 +268,8 @@ void WaterModel::save(const std::filesystem::path& path) const {
     const std::int64_t hdr[4] = {g_.nx, g_.ny, g_.nz, step_};
     os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
     os.write(reinterpret_cast<const char*>(&p_), sizeof p_);
-    for (int c = 0; c < 2; ++c) os.write(reinterpret_cast<const char*>(f_[c].data()), static_cast<std::streamsize>(f_[c].size() * sizeof(float)));
+    for (int c = 0; c < 2; ++c)
+      os.write(reinterpret_cast<const char*>(f_[c].data()), static_cast<std::streamsize>(f_[c].size() * sizeof(float)));
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = path.string()});
   }
   out.commit();
@@ -270,7 +280,8 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
   if (!is) throw IoError("cannot open checkpoint", {.file = path.string()});
   char m[16] = {};
   is.read(m, sizeof m);
-  if (std::memcmp(m, magic, sizeof magic) != 0) throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
+  if (std::memcmp(m, magic, sizeof magic) != 0)
+    throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
   std::int64_t hdr[4];
   is.read(reinterpret_cast<char*>(hdr), sizeof hdr);
   WaterModelParams p;
@@ -279,7 +290,8 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
     throw FormatError("corrupt checkpoint header", {.file = path.string()});
   WaterModel w(Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, p);
   w.step_ = hdr[3];
-  for (int c = 0; c < 2; ++c) is.read(reinterpret_cast<char*>(w.f_[c].data()), static_cast<std::streamsize>(w.f_[c].size() * sizeof(float)));
+  for (int c = 0; c < 2; ++c)
+    is.read(reinterpret_cast<char*>(w.f_[c].data()), static_cast<std::streamsize>(w.f_[c].size() * sizeof(float)));
   if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
   return w;
 }

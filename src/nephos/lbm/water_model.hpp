@@ -24,9 +24,9 @@
 namespace nephos::lbm {
 
 struct WaterModelParams {
-  double rho10 = 1.0;          ///< maximum effective vapour density (bound of Psi_1)
-  double rho20 = 0.505;        ///< maximum temperature of a phase transition
-  double rest_fraction = 0.1;  ///< d
+  double rho10 = 1.0;                              ///< maximum effective vapour density (bound of Psi_1)
+  double rho20 = 0.505;                            ///< maximum temperature of a phase transition
+  double rest_fraction = 0.1;                      ///< d
   double xi_vapour = 1.01, xi_temperature = 2.00;  ///< relaxation times
   double g12 = 0.5, g22 = 0.0;
   double buoyancy = 0.01, buoyancy_reference = 0.5;  ///< g_1 = buoyancy (rho_2 - reference)
@@ -35,8 +35,8 @@ struct WaterModelParams {
   int silos = 4;
   double silo_radius_min = 0.08, silo_radius_max = 0.16;  ///< fraction of the horizontal size
   double silo_height_min = 0.2, silo_height_max = 0.4;    ///< cylinder height, fraction of nz
-  double vapour_background = 0.8;  ///< vapour density far from silos, fraction of rho10
-  bool periodic_z = false;         ///< tests: a fully periodic box (no top/bottom layers)
+  double vapour_background = 0.8;                         ///< vapour density far from silos, fraction of rho10
+  bool periodic_z = false;                                ///< tests: a fully periodic box (no top/bottom layers)
 
   static WaterModelParams from(const ParamDict& dict);
 };
