@@ -39,7 +39,7 @@ void BgkSolver::step() {
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
       for (int y = 0; y < g_.ny; ++y) {
-        gather_row(row_sources(g_, a_.data(), y, z, zb_), f.data());
+        gather_row(row_sources(g_, a_.data(), y, z, zb_), f.data(), static_cast<std::size_t>(nx));
         float* drho = drho_v.data();
         float* ux = ux_v.data();
         float* uy = uy_v.data();

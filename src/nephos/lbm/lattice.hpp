@@ -51,11 +51,13 @@ RowSources row_sources(const Grid3& g, const float* f, int y, int z, ZBoundary z
 /// Gathers the streamed populations of a row into a contiguous buffer: out[i * nx + x] is the
 /// population i arriving at cell x (periodic in x). One memcpy-like pass per direction, so the
 /// collision loops that follow run over x with unit stride and vectorise.
-inline void gather_row(const RowSources& src, float* out) {
+/// `stride` is the distance between directions in `out` (nx for a row buffer, the cell count
+/// for the global array).
+inline void gather_row(const RowSources& src, float* out, std::size_t stride) {
   const int nx = src.nx;
   for (int i = 0; i < d3q19::q; ++i) {
     const float* r = src.row[static_cast<std::size_t>(i)];
-    float* o = out + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx);
+    float* o = out + static_cast<std::size_t>(i) * stride;
     const int s = src.shift[static_cast<std::size_t>(i)];
     if (s == 0) {
       for (int x = 0; x < nx; ++x) o[x] = r[x];

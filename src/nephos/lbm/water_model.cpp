@@ -106,112 +106,175 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
 
 void WaterModel::step() {
   const std::size_t n = g_.cells();
+  const int nx = g_.nx;
+  const auto nxs = static_cast<std::size_t>(nx);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
   const float rho10 = static_cast<float>(p_.rho10);
-  // Pass 1: stream both components; densities and Psi_1.
+  // Pass 1: stream both components into tmp_; densities and Psi_1.
 #pragma omp parallel for collapse(2) schedule(static)
   for (int z = 0; z < g_.nz; ++z)
-    for (int y = 0; y < g_.ny; ++y)
+    for (int y = 0; y < g_.ny; ++y) {
+      const std::size_t base = g_.index(0, y, z);
       for (int c = 0; c < 2; ++c) {
-        const RowSources src = row_sources(g_, f_[c].data(), y, z, zb);
-        const std::size_t base = g_.index(0, y, z);
-        float* out = tmp_[c].data() + base;
-        float* rho = rho_[c].data() + base;  // here: rho - rho_ref
-        for (int x = 0; x < g_.nx; ++x) rho[x] = 0;
-        for (int i = 0; i < d3q19::q; ++i) {
-          float* o = out + static_cast<std::size_t>(i) * n;
-          for (int x = 0; x < g_.nx; ++x) {
-            o[x] = *src.at(i, x);
-            rho[x] += o[x];
-          }
-        }
+        gather_row(row_sources(g_, f_[c].data(), y, z, zb), tmp_[c].data() + base, n);
+        float* rho = rho_[c].data() + base;
         const float ref = static_cast<float>(reference(p_, c));
-        for (int x = 0; x < g_.nx; ++x) rho[x] += ref;
-        if (c == 0)
-          for (int x = 0; x < g_.nx; ++x)
-            psi1_[base + static_cast<std::size_t>(x)] = rho10 * (1.0f - std::exp(-rho[x] / rho10));
+        for (int x = 0; x < nx; ++x) rho[x] = 0;
+        for (int i = 0; i < d3q19::q; ++i) {
+          const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
+          for (int x = 0; x < nx; ++x) rho[x] += t[x];
+        }
+        for (int x = 0; x < nx; ++x) rho[x] += ref;
       }
+      float* psi = psi1_.data() + base;
+      const float* r1 = rho_[0].data() + base;
+      for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
+    }
 
-  // Pass 2: forces, equilibrium velocities, collision.
-  const double v2 = 1.0;  // (lambda / tau)^2
-  const float xi[2] = {static_cast<float>(p_.xi_vapour), static_cast<float>(p_.xi_temperature)};
-  const float d = static_cast<float>(p_.rest_fraction);
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int z = 0; z < g_.nz; ++z)
-    for (int y = 0; y < g_.ny; ++y)
-      for (int x = 0; x < g_.nx; ++x) {
-        const std::size_t cell = g_.index(x, y, z);
-        // Isotropic gradients of Psi_1 and Psi_2 = rho_2 (walls: the neighbour beyond is the cell itself).
-        double g1[3] = {0, 0, 0}, g2[3] = {0, 0, 0};
+  // Pass 2, row by row with unit-stride loops over x: gradients, forces, equilibrium
+  // velocities, collision (in double, rounded to FP32 once on store).
+  const double xi[2] = {p_.xi_vapour, p_.xi_temperature};
+  const double d = p_.rest_fraction;
+  const double g11_scale = -((1 - p_.rest_fraction) / p_.rho10);  // eq. (31) with v = 1
+#pragma omp parallel
+  {
+    std::vector<double> buf(static_cast<std::size_t>(20) * nxs);
+    auto B = [&](int k) { return buf.data() + static_cast<std::size_t>(k) * nxs; };
+    double *g1x = B(0), *g1y = B(1), *g1z = B(2), *g2x = B(3), *g2y = B(4), *g2z = B(5);
+    double *ux = B(6), *uy = B(7), *uz = B(8), *drho = B(9);
+    double *j1x = B(10), *j1y = B(11), *j1z = B(12), *j2x = B(13), *j2y = B(14), *j2z = B(15);
+    double *f1x = B(16), *f1y = B(17), *f1z = B(18), *tmpd = B(19);
+    std::vector<float> nb1(nxs), nb2(nxs);
+#pragma omp for collapse(2) schedule(static)
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = 0; y < g_.ny; ++y) {
+        const std::size_t base = g_.index(0, y, z);
+        // Isotropic gradients of Psi_1 and Psi_2 = rho_2 (walls: the row beyond is the row itself).
+        for (int k = 0; k < 6; ++k)
+          for (int x = 0; x < nx; ++x) B(k)[x] = 0;
         for (int i = 1; i < d3q19::q; ++i) {
           const auto iu = static_cast<std::size_t>(i);
-          const int sx = (x + d3q19::cx[iu] + g_.nx) % g_.nx, sy = (y + d3q19::cy[iu] + g_.ny) % g_.ny;
+          const int sy = (y + d3q19::cy[iu] + g_.ny) % g_.ny;
           int sz = z + d3q19::cz[iu];
-          if (p_.periodic_z)
-            sz = (sz + g_.nz) % g_.nz;
-          else
-            sz = std::clamp(sz, 0, g_.nz - 1);
-          const std::size_t nb = g_.index(sx, sy, sz);
+          sz = p_.periodic_z ? (sz + g_.nz) % g_.nz : std::clamp(sz, 0, g_.nz - 1);
+          const float* p1 = psi1_.data() + g_.index(0, sy, sz);
+          const float* p2 = rho_[1].data() + g_.index(0, sy, sz);
+          const int cx = d3q19::cx[iu];
+          for (int x = 0; x < nx; ++x) {
+            const int sx = x + cx < 0 ? nx - 1 : (x + cx >= nx ? 0 : x + cx);
+            nb1[static_cast<std::size_t>(x)] = p1[sx];
+            nb2[static_cast<std::size_t>(x)] = p2[sx];
+          }
           const double w = d3q19::gradient_weight(i);
-          const double c3[3] = {static_cast<double>(d3q19::cx[iu]), static_cast<double>(d3q19::cy[iu]),
-                                static_cast<double>(d3q19::cz[iu])};
-          for (int a = 0; a < 3; ++a) {
-            g1[a] += w * psi1_[nb] * c3[a];
-            g2[a] += w * rho_[1][nb] * c3[a];
+          const double wx = w * cx, wy = w * d3q19::cy[iu], wz = w * d3q19::cz[iu];
+          for (int x = 0; x < nx; ++x) {
+            const double a = nb1[static_cast<std::size_t>(x)], b = nb2[static_cast<std::size_t>(x)];
+            g1x[x] += wx * a;
+            g1y[x] += wy * a;
+            g1z[x] += wz * a;
+            g2x[x] += wx * b;
+            g2y[x] += wy * b;
+            g2z[x] += wz * b;
           }
         }
-        const double r1 = rho_[0][cell], r2 = rho_[1][cell], psi1 = psi1_[cell];
-        const double g11 = -v2 * ((1 - p_.rest_fraction) / p_.rho10) * (1 + p_.rho20 - r2);  // eq. (31)
-        double force[2][3];
-        for (int a = 0; a < 3; ++a) {
-          force[0][a] = -psi1 * (g11 * g1[a] + p_.g12 * g2[a]);
-          force[1][a] = -r2 * (p_.g12 * g1[a] + p_.g22 * g2[a]);
+        // Momenta of both components.
+        for (int k = 10; k < 16; ++k)
+          for (int x = 0; x < nx; ++x) B(k)[x] = 0;
+        for (int c = 0; c < 2; ++c) {
+          double* jx = c == 0 ? j1x : j2x;
+          double* jy = c == 0 ? j1y : j2y;
+          double* jz = c == 0 ? j1z : j2z;
+          for (int i = 1; i < d3q19::q; ++i) {
+            const auto iu = static_cast<std::size_t>(i);
+            const float* t = tmp_[c].data() + iu * n + base;
+            const double cx = d3q19::cx[iu], cy = d3q19::cy[iu], cz = d3q19::cz[iu];
+            for (int x = 0; x < nx; ++x) {
+              jx[x] += cx * t[x];
+              jy[x] += cy * t[x];
+              jz[x] += cz * t[x];
+            }
+          }
         }
-        force[0][2] += r1 * p_.buoyancy * (r2 - p_.buoyancy_reference);
-        // Momenta and the common equilibrium velocity (eq. 9).
-        double j[2][3] = {{0, 0, 0}, {0, 0, 0}};
-        for (int c = 0; c < 2; ++c)
+        const float* r1 = rho_[0].data() + base;
+        const float* r2 = rho_[1].data() + base;
+        const float* ps = psi1_.data() + base;
+        // Forces (eq. 25) into f1*, the temperature force into g2* (no longer needed), and the
+        // common equilibrium velocity (eq. 9).
+        for (int x = 0; x < nx; ++x) {
+          const double psi1 = ps[x], rr1 = r1[x], rr2 = r2[x];
+          const double g11 = g11_scale * (1 + p_.rho20 - rr2);
+          const double h1x = g1x[x], h1y = g1y[x], h1z = g1z[x];
+          f1x[x] = -psi1 * (g11 * h1x + p_.g12 * g2x[x]);
+          f1y[x] = -psi1 * (g11 * h1y + p_.g12 * g2y[x]);
+          f1z[x] = -psi1 * (g11 * h1z + p_.g12 * g2z[x]) + rr1 * p_.buoyancy * (rr2 - p_.buoyancy_reference);
+          const double f2x = -rr2 * (p_.g12 * h1x + p_.g22 * g2x[x]);
+          const double f2y = -rr2 * (p_.g12 * h1y + p_.g22 * g2y[x]);
+          const double f2z = -rr2 * (p_.g12 * h1z + p_.g22 * g2z[x]);
+          g2x[x] = f2x;
+          g2y[x] = f2y;
+          g2z[x] = f2z;
+          const double denom = rr1 / xi[0] + rr2 / xi[1];
+          ux[x] = (j1x[x] / xi[0] + j2x[x] / xi[1]) / denom;
+          uy[x] = (j1y[x] / xi[0] + j2y[x] / xi[1]) / denom;
+          uz[x] = (j1z[x] / xi[0] + j2z[x] / xi[1]) / denom;
+        }
+        for (int c = 0; c < 2; ++c) {
+          const float* rho = c == 0 ? r1 : r2;
+          const double* fx = c == 0 ? f1x : g2x;
+          const double* fy = c == 0 ? f1y : g2y;
+          const double* fz = c == 0 ? f1z : g2z;
+          const double omega = 1.0 / xi[c];
+          // Per-cell equilibrium velocity of this component (eq. 10) into j* (reused), and
+          // rho - rho_ref from the shifted populations (no cancellation against rho_ref).
+          double* vx = c == 0 ? j1x : j2x;
+          double* vy = c == 0 ? j1y : j2y;
+          double* vz = c == 0 ? j1z : j2z;
+          for (int x = 0; x < nx; ++x) {
+            const double s = xi[c] / rho[x];
+            vx[x] = ux[x] + s * fx[x];
+            vy[x] = uy[x] + s * fy[x];
+            vz[x] = uz[x] + s * fz[x];
+            drho[x] = 0;
+          }
+          for (int i = 0; i < d3q19::q; ++i) {
+            const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
+            for (int x = 0; x < nx; ++x) drho[x] += t[x];
+          }
           for (int i = 0; i < d3q19::q; ++i) {
             const auto iu = static_cast<std::size_t>(i);
-            const double f = tmp_[c][iu * n + cell];
-            j[c][0] += f * d3q19::cx[iu];
-            j[c][1] += f * d3q19::cy[iu];
-            j[c][2] += f * d3q19::cz[iu];
-          }
-        const double rho[2] = {r1, r2};
-        double ueq[3];
-        const double denom = r1 / xi[0] + r2 / xi[1];
-        for (int a = 0; a < 3; ++a) ueq[a] = (j[0][a] / xi[0] + j[1][a] / xi[1]) / denom;
-        for (int c = 0; c < 2; ++c) {
-          // Collision in double; the populations are rounded to FP32 once, on store.
-          double feq[d3q19::q];
-          const double s = xi[c] / rho[c];  // eq. (10), tau = 1
-          // rho - rho_ref from the shifted populations themselves (no cancellation against rho_ref).
-          double drho = 0;
-          for (int i = 0; i < d3q19::q; ++i) drho += tmp_[c][static_cast<std::size_t>(i) * n + cell];
-          d3q19::equilibrium_shifted<double>(drho, rho[c], ueq[0] + s * force[c][0], ueq[1] + s * force[c][1],
-                                             ueq[2] + s * force[c][2], static_cast<double>(d), feq);
-          const double omega = 1.0 / xi[c];
-          for (int i = 0; i < d3q19::q; ++i) {
-            const std::size_t k = static_cast<std::size_t>(i) * n + cell;
-            f_[c][k] = static_cast<float>(tmp_[c][k] - omega * (tmp_[c][k] - feq[i]));
+            const float* t = tmp_[c].data() + iu * n + base;
+            float* o = f_[c].data() + iu * n + base;
+            const double cx = d3q19::cx[iu], cy = d3q19::cy[iu], cz = d3q19::cz[iu];
+            const double w = d3q19::rest_weight<double>(i, d);
+            const double k1 = i == 0 ? 0.0 : i <= 6 ? 1.0 / 6.0 : 1.0 / 12.0;
+            const double k2 = i == 0 ? 0.0 : i <= 6 ? 0.25 : 0.125;
+            const double k3 = i == 0 ? 0.5 : i <= 6 ? 1.0 / 12.0 : 1.0 / 24.0;
+            for (int x = 0; x < nx; ++x) {
+              const double cu = cx * vx[x] + cy * vy[x] + cz * vz[x];
+              const double u2 = vx[x] * vx[x] + vy[x] * vy[x] + vz[x] * vz[x];
+              const double feq = w * drho[x] + rho[x] * (k1 * cu + k2 * cu * cu - k3 * u2);
+              tmpd[x] = t[x] - omega * (t[x] - feq);
+            }
+            for (int x = 0; x < nx; ++x) o[x] = static_cast<float>(tmpd[x]);
           }
         }
       }
+  }
 
   // Fixed-temperature, zero-velocity bottom and top layers.
   if (!p_.periodic_z) {
     for (int z : {0, g_.nz - 1}) {
       const float temp = static_cast<float>(z == 0 ? p_.temperature_bottom : p_.temperature_top);
+      const float df = static_cast<float>(d);
 #pragma omp parallel for schedule(static)
       for (int y = 0; y < g_.ny; ++y)
         for (int x = 0; x < g_.nx; ++x) {
           const std::size_t cell = g_.index(x, y, z);
           float feq[d3q19::q];
           d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0,
-                                            0, d, feq);
+                                            0, df, feq);
           for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
-          d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, d, feq);
+          d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq);
           for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
         }
     }
