@@ -104,6 +104,21 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
   step_ = 0;
 }
 
+void WaterModel::initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed) {
+  const std::size_t n = g_.cells();
+  const float d = static_cast<float>(p_.rest_fraction);
+  for (std::size_t cell = 0; cell < n; ++cell) {
+    const double v = vapour + perturbation * (2 * uniform01(seed, 0x9e7, cell) - 1);
+    float feq[d3q19::q];
+    d3q19::equilibrium_shifted<float>(static_cast<float>(v - reference(p_, 0)), static_cast<float>(v), 0, 0, 0, d, feq);
+    for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
+    d3q19::equilibrium_shifted<float>(static_cast<float>(temperature - reference(p_, 1)),
+                                      static_cast<float>(temperature), 0, 0, 0, d, feq);
+    for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
+  }
+  step_ = 0;
+}
+
 void WaterModel::step() {
   const std::size_t n = g_.cells();
   const int nx = g_.nx;
@@ -204,9 +219,11 @@ void WaterModel::step() {
           const double psi1 = ps[x], rr1 = r1[x], rr2 = r2[x];
           const double g11 = g11_scale * (1 + p_.rho20 - rr2);
           const double h1x = g1x[x], h1y = g1y[x], h1z = g1z[x];
-          f1x[x] = -psi1 * (g11 * h1x + p_.g12 * g2x[x]);
-          f1y[x] = -psi1 * (g11 * h1y + p_.g12 * g2y[x]);
-          f1z[x] = -psi1 * (g11 * h1z + p_.g12 * g2z[x]) + rr1 * p_.buoyancy * (rr2 - p_.buoyancy_reference);
+          // Self-interaction with the factor 2 that makes the pressure G11 Psi_1^2 of eq. (29),
+          // whose window dp/drho_1 < 0 (eq. 30) eq. (31) normalises; see docs/lbm.md.
+          f1x[x] = -psi1 * (2 * g11 * h1x + p_.g12 * g2x[x]);
+          f1y[x] = -psi1 * (2 * g11 * h1y + p_.g12 * g2y[x]);
+          f1z[x] = -psi1 * (2 * g11 * h1z + p_.g12 * g2z[x]) + rr1 * p_.buoyancy * (rr2 - p_.buoyancy_reference);
           const double f2x = -rr2 * (p_.g12 * h1x + p_.g22 * g2x[x]);
           const double f2y = -rr2 * (p_.g12 * h1y + p_.g22 * g2y[x]);
           const double f2z = -rr2 * (p_.g12 * h1z + p_.g22 * g2z[x]);

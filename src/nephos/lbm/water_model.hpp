@@ -4,7 +4,8 @@
 // is temperature (a component of negligible molecular mass, advected and diffused, eq. 28).
 //
 // Per step: stream (pull); densities rho_s and momenta; interaction forces (eq. 25)
-//   F_1 = -Psi_1 (G11 grad Psi_1 + G12 grad Psi_2) + rho_1 g_1(rho_2) z_hat
+//   F_1 = -Psi_1 (2 G11 grad Psi_1 + G12 grad Psi_2) + rho_1 g_1(rho_2) z_hat
+//     (the factor 2 on the self-interaction gives the pressure of eq. 29, see docs/lbm.md)
 //   F_2 = -Psi_2 (G21 grad Psi_1 + G22 grad Psi_2)
 // with Psi_1 = rho10 (1 - exp(-rho_1/rho10)), Psi_2 = rho_2, G11 from eq. (31)
 // (G11 = -v^2 ((1-d)/rho10) (1 + rho20 - rho_2), evaluated with the local temperature),
@@ -35,7 +36,7 @@ struct WaterModelParams {
   int silos = 4;
   double silo_radius_min = 0.08, silo_radius_max = 0.16;  ///< fraction of the horizontal size
   double silo_height_min = 0.2, silo_height_max = 0.4;    ///< cylinder height, fraction of nz
-  double vapour_background = 0.8;                         ///< vapour density far from silos, fraction of rho10
+  double vapour_background = 0.5;                         ///< vapour density far from silos, fraction of rho10
   bool periodic_z = false;                                ///< tests: a fully periodic box (no top/bottom layers)
 
   static WaterModelParams from(const ParamDict& dict);
@@ -54,6 +55,8 @@ class WaterModel {
   /// Initial conditions: silo vapour (uniform in [0.99, 1.01] rho10 inside, linear fall-off
   /// outside over one radius to the background), linear temperature from bottom to top.
   void initialise(const std::vector<Silo>& silos, std::uint64_t seed);
+  /// Uniform vapour and temperature at rest, vapour perturbed by +-`perturbation` (hashed).
+  void initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed);
   void step();
   long steps_done() const { return step_; }
 
