@@ -222,7 +222,9 @@ class Lbm(unittest.TestCase):
             self.assertEqual(r.returncode, 0, r.stderr)
             a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")
             self.assertEqual(a["vapour_density"].dimensions, ("z", "y", "x"))
-            for v in ("vapour_density", "temperature"):
+            p = a["percolated_density"][:]
+            self.assertTrue(np.all((p >= 0) & (p <= 1)))
+            for v in ("vapour_density", "temperature", "percolated_density"):
                 self.assertTrue(np.array_equal(a[v][:], c[v][:]), v)
 
     def test_bad_input(self):
@@ -247,7 +249,7 @@ class Bench(unittest.TestCase):
     def test_lbm_bench_smoke(self):
         r = run("bench", "lbm", "--size", "32", "--repeat", "2")
         self.assertEqual(r.returncode, 0, r.stderr)
-        for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "peak resident memory"):
+        for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "percolation K=5", "40 s", "peak resident memory"):
             self.assertIn(anchor, r.stdout)
 
 

@@ -1,0 +1,69 @@
+#pragma once
+// The Nagel-Raschke cloud automaton (Nagel & Raschke 1992, in the formulation of Dobashi et
+// al. 2000) used by the lattice-Boltzmann cloud seed (section 4.2) to add fine detail.
+// Three boolean states per cell of a grid refined K times per axis: humidity (hum),
+// activation (act), cloud (cld). One synchronous step:
+//   hum' = hum AND NOT act
+//   cld' = cld OR act
+//   act' = NOT act AND hum AND f_act,
+//   f_act = act at x+-1, x+-2, y+-1, y+-2 (horizontal) or z-1, z-2 (below)
+// so activation spreads sideways and upwards but never downwards (the asymmetric upward rule).
+// Without the optional extinction rule (cld' = cld AND NOT ext, ext with probability p_ext)
+// a cloud site never switches off. States are bit-packed along x (64 cells per word).
+#include <cstdint>
+#include <vector>
+
+#include "nephos/lbm/lattice.hpp"
+
+namespace nephos::lbm {
+
+struct PercolationParams {
+  int refinement = 5;              ///< K
+  double epsilon_below = 0.00025;  ///< eps1: no humidity where vapour < rho10 - eps1
+  double epsilon_above = 0.0002;   ///< eps2: all humid where vapour > rho10 + eps2
+  double rho10 = 1.0;
+  double initial_activation = 0.01;  ///< probability that a humid site starts active
+  double extinction = 0.0;           ///< probability per step that a cloud site vanishes
+  int max_steps = 2000;
+};
+
+class Percolation {
+ public:
+  /// Seeds the refined grid from the vapour density on `coarse` (section 4.2).
+  Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
+              std::uint64_t seed);
+  /// Makes fine site (x, y, z) active (and humid): explicit seeding, e.g. for tests.
+  void set_active(int x, int y, int z);
+  /// One synchronous update; returns the number of active sites after it.
+  std::size_t step();
+  /// Steps until no site is active (or max_steps); returns the number of steps taken.
+  int run();
+  /// Cloud fraction per coarse cell: the mean of cld over each K^3 block.
+  std::vector<float> coarse_density() const;
+  /// Counts of sites in each state.
+  std::size_t count_humid() const { return popcount(hum_); }
+  std::size_t count_active() const { return popcount(act_); }
+  std::size_t count_cloud() const { return popcount(cld_); }
+  /// The cloud field projected along z (OR over the column), fine resolution, row-major y, x.
+  std::vector<std::uint8_t> projected_cloud() const;
+  const Grid3& fine() const { return fine_; }
+  bool cloud(int x, int y, int z) const { return bit(cld_, x, y, z); }
+
+ private:
+  static std::size_t popcount(const std::vector<std::uint64_t>& v);
+  bool bit(const std::vector<std::uint64_t>& v, int x, int y, int z) const;
+  std::size_t row(int y, int z) const { return (static_cast<std::size_t>(z) * fine_.ny + y) * words_; }
+  Grid3 coarse_, fine_;
+  PercolationParams p_;
+  std::uint64_t seed_;
+  int words_;  // 64-bit words per fine row
+  long step_ = 0;
+  std::vector<std::uint64_t> hum_, act_, cld_, next_act_, next_hum_;
+};
+
+/// Perimeter-area fractal dimension of the clusters of a 2D binary field (4-connectivity,
+/// periodic): least-squares slope of log P against log A over clusters with A >= min_area,
+/// D = 2 * slope (P ~ A^(D/2); Lovejoy 1982). Returns NaN with fewer than 10 clusters.
+double perimeter_area_dimension(const std::vector<std::uint8_t>& field, int nx, int ny, int min_area = 4);
+
+}  // namespace nephos::lbm

@@ -1,0 +1,113 @@
+#include "nephos/lbm/percolation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "nephos/core/parallel.hpp"
+#include "nephos/lbm/water_model.hpp"
+
+namespace nephos::lbm {
+
+TEST(Percolation, SeedingThresholdsOfSection42) {
+  // Below rho10 - eps1 nothing is humid, above rho10 + eps2 everything is; in between the
+  // fraction is linear: at the midpoint, half (binomial: 0.5 +- 0.004 for 16,000 sites).
+  const Grid3 g{4, 4, 4};
+  PercolationParams p;
+  p.refinement = 5;
+  for (auto [v, expected, tol] : {std::tuple{0.9, 0.0, 0.0}, {1.001, 1.0, 0.0}, {1.0 - 0.000025, 0.5, 0.02}}) {
+    const Percolation perc(g, std::vector<float>(g.cells(), static_cast<float>(v)), p, 1);
+    EXPECT_NEAR(static_cast<double>(perc.count_humid()) / static_cast<double>(perc.fine().cells()), expected, tol) << v;
+  }
+}
+
+TEST(Percolation, ActivationSpreadsSidewaysAndUpButNeverDown) {
+  // Humid everywhere, one active site at mid-height: at the end every site at or above it is
+  // cloud, none below (the asymmetric upward rule).
+  const Grid3 g{4, 4, 4};
+  PercolationParams p;
+  p.refinement = 4;
+  p.initial_activation = 0;
+  Percolation perc(g, std::vector<float>(g.cells(), 2.0f), p, 1);
+  perc.set_active(3, 5, 7);
+  perc.run();
+  EXPECT_EQ(perc.count_active(), 0u);
+  const Grid3 f = perc.fine();
+  for (int z = 0; z < f.nz; ++z) {
+    int cloud = 0;
+    for (int y = 0; y < f.ny; ++y)
+      for (int x = 0; x < f.nx; ++x) cloud += perc.cloud(x, y, z);
+    EXPECT_EQ(cloud, z >= 7 ? f.nx * f.ny : 0) << "z = " << z;
+  }
+  const auto d = perc.coarse_density();
+  EXPECT_EQ(d[g.index(0, 0, 3)], 1.0f);   // block z = 12..15: all cloud
+  EXPECT_EQ(d[g.index(0, 0, 0)], 0.0f);   // block z = 0..3: none
+  EXPECT_EQ(d[g.index(1, 1, 1)], 0.25f);  // block z = 4..7: only its top layer (z = 7)
+}
+
+TEST(Percolation, CloudSitesNeverSwitchOffWithoutExtinction) {
+  const Grid3 g{6, 6, 6};
+  PercolationParams p;
+  p.initial_activation = 0.02;
+  std::vector<float> v(g.cells());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = 1.0f + 0.0003f * std::sin(static_cast<float>(i));
+  Percolation perc(g, v, p, 9);
+  std::vector<bool> before(perc.fine().cells());
+  for (int t = 0; t < 25; ++t) {
+    const Grid3 f = perc.fine();
+    for (int z = 0; z < f.nz; ++z)
+      for (int y = 0; y < f.ny; ++y)
+        for (int x = 0; x < f.nx; ++x) {
+          const bool c = perc.cloud(x, y, z);
+          ASSERT_FALSE(before[f.index(x, y, z)] && !c) << "site switched off at step " << t;
+          before[f.index(x, y, z)] = c;
+        }
+    perc.step();
+  }
+  // With extinction, cloud sites do switch off.
+  p.extinction = 0.5;
+  Percolation ext(g, std::vector<float>(g.cells(), 2.0f), p, 9);
+  ext.step();
+  const Grid3 f = ext.fine();
+  std::vector<bool> was(f.cells());
+  for (int z = 0; z < f.nz; ++z)
+    for (int y = 0; y < f.ny; ++y)
+      for (int x = 0; x < f.nx; ++x) was[f.index(x, y, z)] = ext.cloud(x, y, z);
+  ext.step();
+  bool switched_off = false;
+  for (int z = 0; z < f.nz && !switched_off; ++z)
+    for (int y = 0; y < f.ny; ++y)
+      for (int x = 0; x < f.nx; ++x) switched_off |= was[f.index(x, y, z)] && !ext.cloud(x, y, z);
+  EXPECT_TRUE(switched_off);
+}
+
+TEST(Percolation, DeterministicAcrossThreads) {
+  const Grid3 g{8, 8, 8};
+  PercolationParams p;
+  std::vector<float> v(g.cells(), 1.0f);
+  set_threads(1);
+  Percolation a(g, v, p, 3);
+  a.run();
+  set_threads(2);
+  Percolation b(g, v, p, 3);
+  b.run();
+  set_threads(0);
+  const auto da = a.coarse_density(), db = b.coarse_density();
+  EXPECT_EQ(std::memcmp(da.data(), db.data(), da.size() * sizeof(float)), 0);
+}
+
+TEST(Percolation, PerimeterAreaDimensionOfKnownShapes) {
+  // Squares of side s: P = 4 s, A = s^2, so P ~ A^(1/2) and D = 1 exactly.
+  const int n = 200;
+  std::vector<std::uint8_t> f(static_cast<std::size_t>(n) * n, 0);
+  int x0 = 2;
+  for (int s = 2; s <= 14; ++s) {
+    for (int y = 2; y < 2 + s; ++y)
+      for (int x = x0; x < x0 + s; ++x) f[static_cast<std::size_t>(y) * n + x] = 1;
+    x0 += s + 2;
+  }
+  EXPECT_NEAR(perimeter_area_dimension(f, n, n, 4), 1.0, 1e-9);
+}
+
+}  // namespace nephos::lbm
