@@ -213,18 +213,20 @@ class Lbm(unittest.TestCase):
         import numpy as np
         with tempfile.TemporaryDirectory() as d:
             d = Path(d)
-            r = run("lbm", "--grid", "16x16x16", "--iterations", "12", "--out", d / "a")
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "12", "--size", "64x48", "--out", d / "a")
             self.assertEqual(r.returncode, 0, r.stderr)
             self.assertIn("12 steps", r.stdout)
-            r = run("lbm", "--grid", "16x16x16", "--iterations", "6", "--checkpoint-every", "6", "--out", d / "b")
+            self.assertRegex(r.stdout, r"lighting: \d+ steps to residual")
+            self.assertEqual((d / "a" / "render.png").read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "6", "--checkpoint-every", "6", "--size", "64x48", "--out", d / "b")
             self.assertEqual(r.returncode, 0, r.stderr)
-            r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--out", d / "c")
+            r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--size", "64x48", "--out", d / "c")
             self.assertEqual(r.returncode, 0, r.stderr)
             a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")
             self.assertEqual(a["vapour_density"].dimensions, ("z", "y", "x"))
             p = a["percolated_density"][:]
             self.assertTrue(np.all((p >= 0) & (p <= 1)))
-            for v in ("vapour_density", "temperature", "percolated_density"):
+            for v in ("vapour_density", "temperature", "percolated_density", "light"):
                 self.assertTrue(np.array_equal(a[v][:], c[v][:]), v)
 
     def test_bad_input(self):
@@ -233,6 +235,9 @@ class Lbm(unittest.TestCase):
             r = run("lbm", "--grid", "16x16", "--out", out)
             self.assertEqual(r.returncode, 2)
             self.assertIn("NXxNYxNZ", r.stderr)
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "2", "--sun", "south", "--out", out)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("--sun", r.stderr)
             r = run("lbm", "--resume", Path(d) / "missing.bin", "--out", out)
             self.assertEqual(r.returncode, 2)
             self.assertIn("missing.bin", r.stderr)
@@ -249,7 +254,8 @@ class Bench(unittest.TestCase):
     def test_lbm_bench_smoke(self):
         r = run("bench", "lbm", "--size", "32", "--repeat", "2")
         self.assertEqual(r.returncode, 0, r.stderr)
-        for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "percolation K=5", "40 s", "peak resident memory"):
+        for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "percolation K=5", "40 s", "lighting", "18 s",
+                       "ray casting 640x480", "3 s", "peak resident memory"):
             self.assertIn(anchor, r.stdout)
 
 

@@ -19,8 +19,11 @@
 #include "nephos/core/progress.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
+#include "nephos/io/png.hpp"
 #include "nephos/lbm/lbm_io.hpp"
+#include "nephos/lbm/lighting.hpp"
 #include "nephos/lbm/percolation.hpp"
+#include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/render/outputs.hpp"
 #include "nephos/render/renderer.hpp"
@@ -218,7 +221,9 @@ struct LbmOptions {
   int silos = -1;  // < 0: the parameter file's (default 4)
   long iterations = 20;
   long checkpoint_every = 0;
-  int percolation = 5;  // K; 0: skip the stage
+  int percolation = 5;         // K; 0: skip the stage
+  std::string sun = "135,45";  // azimuth, elevation [deg]
+  std::string size = "640x480";
   std::string resume;
   std::string config;
   std::string out = "out/lbm";
@@ -227,6 +232,17 @@ struct LbmOptions {
 int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   const auto t_start = std::chrono::steady_clock::now();
   if (o.iterations < 0) throw ValueError("must be >= 0", {.key = "--iterations"});
+  const auto image_size = parse_size(o.size);
+  const auto sun = split(o.sun, "--sun");
+  if (sun.size() != 2) throw ValueError("expected AZIMUTH,ELEVATION in degrees", {.key = "--sun"});
+  lbm::LightingParams lp;
+  try {
+    lp.sun_azimuth_deg = std::stod(sun[0]);
+    lp.sun_elevation_deg = std::stod(sun[1]);
+  } catch (const std::exception&) {
+    throw ValueError("expected AZIMUTH,ELEVATION in degrees, got '" + o.sun + "'", {.key = "--sun"});
+  }
+
   lbm::WaterModelParams params;
   if (!o.config.empty()) {
     const ParamDict dict = ParamDict::from_file(o.config);
@@ -284,12 +300,35 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     percolated = perc.coarse_density();
     t_perc = std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
   }
+  // Lighting (lattice-Boltzmann photon transport) of the cloud density, then ray casting.
+  std::vector<float> cloud = percolated;
+  if (cloud.empty()) {  // without percolation: condensate where the vapour exceeds rho10
+    cloud.resize(vapour.size());
+    for (std::size_t c = 0; c < vapour.size(); ++c)
+      cloud[c] = static_cast<float>(std::clamp((vapour[c] - params.rho10) / (0.1 * params.rho10), 0.0, 1.0));
+  }
+  const auto tl = std::chrono::steady_clock::now();
+  lbm::LightingSolver lighting(grid, cloud, lp);
+  const int light_steps = lighting.solve();
+  const auto light = lighting.light();
+  const double t_light = std::chrono::duration<double>(std::chrono::steady_clock::now() - tl).count();
+  const auto tr = std::chrono::steady_clock::now();
+  lbm::RaycastParams rp;
+  std::tie(rp.width, rp.height) = image_size;
+  rp.sun_azimuth_deg = lp.sun_azimuth_deg;
+  rp.sun_elevation_deg = lp.sun_elevation_deg;
+  const auto image = lbm::raycast(grid, cloud, light, rp);
+  io::write_png(out / "render.png", rp.width, rp.height, 3, image);
+  const double t_ray = std::chrono::duration<double>(std::chrono::steady_clock::now() - tr).count();
+
   std::vector<lbm::LatticeField> fields{
       {"vapour_density", "water vapour density (lattice units; condensation above rho10)", "1", &vapour},
       {"temperature", "temperature (lattice units)", "1", &temperature}};
   if (!percolated.empty())
     fields.push_back(
         {"percolated_density", "cloud fraction of each cell after Nagel-Raschke percolation", "1", &percolated});
+  fields.push_back(
+      {"light", "steady-state photon density (sum over lattice directions; sunlight injected at 1)", "1", &light});
   lbm::write_lattice_netcdf(out / "lbm.nc", grid, fields,
                             {{"title", "nephos lattice-Boltzmann convective cloud"},
                              {"steps", std::to_string(model.steps_done())},
@@ -299,6 +338,9 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
                            t_water, done > 0 ? t_water / static_cast<double>(done) : 0.0, thread_count());
   if (o.percolation > 0)
     std::cout << fmt::format("percolation K={}: {} steps in {:.2f} s\n", o.percolation, perc_steps, t_perc);
+  std::cout << fmt::format("lighting: {} steps to residual {:.1e} in {:.2f} s\n", light_steps, lighting.residual(),
+                           t_light);
+  std::cout << fmt::format("ray casting {}x{}: {:.2f} s\n", rp.width, rp.height, t_ray);
   spdlog::info("wrote {} in {:.1f} s", (out / "lbm.nc").string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
   return 0;
@@ -357,6 +399,8 @@ int main(int argc, char** argv) {
   lbmc->add_option("--percolation", lo.percolation, "Percolation refinement K (0: skip)")
       ->capture_default_str()
       ->check(CLI::Range(0, 16));
+  lbmc->add_option("--sun", lo.sun, "Sun AZIMUTH,ELEVATION [deg] (azimuth from +x towards +y)")->capture_default_str();
+  lbmc->add_option("--size", lo.size, "Rendered image WIDTHxHEIGHT")->capture_default_str();
   lbmc->add_option("--resume", lo.resume, "Continue from a checkpoint file");
   lbmc->add_option("--config", lo.config, "TOML with a [water] table");
   lbmc->add_option("--out", lo.out, "Output directory")->capture_default_str();

@@ -1,0 +1,84 @@
+#pragma once
+// Lattice-Boltzmann photon transport (Geist et al. 2004, "Lattice-Boltzmann lighting"; seed
+// section 4.3). Photon densities I_i travel along the 18 moving D3Q19 directions. Each step:
+//   collision  I_i' = (1 - sigma_t) I_i + sigma_s sum_j P_ij I_j      (sigma_t = sigma_a + sigma_s)
+//   streaming  I_i(x + c_i) = I_i'(x)
+// with sigma_a, sigma_s [per lattice step] following the cloud density of each voxel and a
+// discrete phase function P whose columns sum to 1 (scattering conserves photons). Sunlight
+// enters through the boundary along the lattice directions nearest the sun direction;
+// photons leaving the box are lost. Iterated to a steady state.
+//
+// Diffusion limit (derived in docs/lbm.md): for isotropic P (P_i = w_i / sum w: 1/12 axis,
+// 1/24 diagonal) and no absorption, a photon keeps its direction with probability 1 - sigma_s
+// per step, so the walk is a persistent random walk with <|c|^2> = 3/2 and
+//   D = (<|c|^2> / 6) (2 - sigma_s) / sigma_s = (2 / sigma_s - 1) / 4,
+// Geist et al.'s D = (2/sigma_t - 1) / (4 (1 + sigma_a)) at sigma_a = 0 (tested).
+#include <array>
+#include <vector>
+
+#include "nephos/lbm/lattice.hpp"
+
+namespace nephos::lbm {
+
+inline constexpr int light_dirs = 18;  ///< D3Q19 directions 1..18
+
+/// Discrete phase function: P[i][j] = probability that a photon scattered while travelling in
+/// direction j leaves in direction i (indices 0..17 for D3Q19 directions 1..18).
+using PhaseMatrix = std::array<std::array<double, light_dirs>, light_dirs>;
+/// Henyey-Greenstein weighted by the lattice weights, columns normalised; the discrete
+/// asymmetry parameter is solved for so that the mean scattering cosine equals `g` exactly
+/// (g = 0: isotropic).
+PhaseMatrix phase_matrix(double g);
+/// Mean cosine of scattering of column j of P.
+double mean_cosine(const PhaseMatrix& p, int j);
+
+struct LightingParams {
+  double sigma_s_per_density = 0.5;                      ///< scattering per lattice step at cloud density 1
+  double sigma_a_per_density = 0.005;                    ///< absorption per lattice step at cloud density 1
+  double asymmetry = 0.0;                                ///< g of the Henyey-Greenstein phase function
+  double sun_azimuth_deg = 135, sun_elevation_deg = 45;  ///< azimuth from +x towards +y
+  double tolerance = 1e-5;                               ///< steady state: relative change of total photons per step
+  int max_iterations = 5000;
+  bool periodic = false;  ///< tests: a periodic box without sun
+};
+
+struct PhotonBalance {
+  double inflow = 0, outflow = 0, absorbed = 0;  ///< photons per step
+};
+
+class LightingSolver {
+ public:
+  /// `density` in [0, 1] per cell (e.g. the percolated cloud fraction).
+  LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params);
+  /// One collision + streaming step; returns the relative change of the total photon count.
+  double step();
+  /// Steps until the change falls below the tolerance; returns the steps taken.
+  int solve();
+  double residual() const { return residual_; }
+  const PhotonBalance& balance() const { return balance_; }
+  /// Total photon density per cell (sum over directions): the light field.
+  std::vector<float> light() const;
+  double total() const;
+  /// Puts photons `amount` at cell, spread over directions by the lattice weights (tests).
+  void add_pulse(std::size_t cell, double amount);
+  /// Puts photons `amount` at cell travelling in D3Q19 direction `dir` (1..18) (tests).
+  void add_beam(std::size_t cell, int dir, double amount);
+  /// Photons of D3Q19 direction `dir` (1..18) summed over the grid.
+  double total_in_direction(int dir) const;
+  const Grid3& grid() const { return g_; }
+  /// The lattice directions the sun enters along and their weights (sum 1).
+  const std::vector<std::pair<int, double>>& sun_directions() const { return sun_; }
+
+ private:
+  Grid3 g_;
+  LightingParams p_;
+  std::vector<float> sigma_s_, sigma_a_;
+  std::vector<float> i_, next_;  // [dir][cell]
+  PhaseMatrix phase_;
+  bool isotropic_;
+  std::vector<std::pair<int, double>> sun_;
+  double residual_ = 1;
+  PhotonBalance balance_;
+};
+
+}  // namespace nephos::lbm

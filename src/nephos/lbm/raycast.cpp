@@ -1,0 +1,131 @@
+#include "nephos/lbm/raycast.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace nephos::lbm {
+namespace {
+
+struct V {
+  double x, y, z;
+};
+V operator+(V a, V b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+V operator-(V a, V b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V operator*(double s, V a) { return {s * a.x, s * a.y, s * a.z}; }
+double dot(V a, V b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V cross(V a, V b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+V norm(V a) { return (1.0 / std::sqrt(dot(a, a))) * a; }
+
+// Trilinear sample of a cell-centred field at point p (cell i spans [i, i+1]); 0 outside.
+double sample(const Grid3& g, const std::vector<float>& f, V p) {
+  const double x = p.x - 0.5, y = p.y - 0.5, z = p.z - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y)),
+            z0 = static_cast<int>(std::floor(z));
+  const double tx = x - x0, ty = y - y0, tz = z - z0;
+  double v = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int xi = x0 + (c & 1), yi = y0 + ((c >> 1) & 1), zi = z0 + ((c >> 2) & 1);
+    if (xi < 0 || yi < 0 || zi < 0 || xi >= g.nx || yi >= g.ny || zi >= g.nz) continue;
+    const double w = ((c & 1) ? tx : 1 - tx) * (((c >> 1) & 1) ? ty : 1 - ty) * (((c >> 2) & 1) ? tz : 1 - tz);
+    v += w * f[g.index(xi, yi, zi)];
+  }
+  return v;
+}
+
+// Ray-box [0, n] intersection; false if missed.
+bool box(const Grid3& g, V o, V d, double& t0, double& t1) {
+  t0 = 0;
+  t1 = 1e30;
+  const double lo[3] = {0, 0, 0}, hi[3] = {double(g.nx), double(g.ny), double(g.nz)};
+  const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(dd[a]) < 1e-12) {
+      if (oo[a] < lo[a] || oo[a] > hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - oo[a]) / dd[a], tb = (hi[a] - oo[a]) / dd[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t1 > t0;
+}
+
+// Optical depth from p towards the sun through the volume.
+double depth_to_sun(const Grid3& g, const std::vector<float>& density, V p, V sun, double kappa, double step) {
+  double t0, t1;
+  if (!box(g, p, sun, t0, t1)) return 0;
+  double tau = 0;
+  for (double t = t0 + 0.5 * step; t < t1; t += step) tau += kappa * sample(g, density, p + t * sun) * step;
+  return tau;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& density, const std::vector<float>& light,
+                                  const RaycastParams& p) {
+  const double ea = p.sun_elevation_deg * M_PI / 180, az = p.sun_azimuth_deg * M_PI / 180;
+  const V sun{std::cos(ea) * std::cos(az), std::cos(ea) * std::sin(az), std::sin(ea)};  // towards the sun
+  V eye{p.eye[0], p.eye[1], p.eye[2]}, target{p.target[0], p.target[1], p.target[2]};
+  if (dot(eye - target, eye - target) < 1e-9) {  // default: a low side view across the box
+    target = {0.5 * g.nx, 0.5 * g.ny, 0.3 * g.nz};
+    eye = {0.5 * g.nx, -1.3 * g.ny, 0.35 * g.nz};
+  }
+  const V fwd = norm(target - eye);
+  const V right = norm(cross(fwd, V{0, 0, 1}));
+  const V up = cross(right, fwd);
+  const double th = std::tan(0.5 * p.fov_deg * M_PI / 180);
+  // Light normalisation: the 99th percentile of the light inside cloud.
+  std::vector<float> lit;
+  for (std::size_t c = 0; c < density.size(); ++c)
+    if (density[c] > 0.05f) lit.push_back(light[c]);
+  double lnorm = 1;
+  if (!lit.empty()) {
+    std::nth_element(lit.begin(), lit.begin() + static_cast<std::ptrdiff_t>(lit.size() * 99 / 100), lit.end());
+    lnorm = std::max(1e-12, static_cast<double>(lit[lit.size() * 99 / 100]));
+  }
+  std::vector<std::uint8_t> img(static_cast<std::size_t>(p.width) * p.height * 3);
+  const double kappa = p.extinction_per_density;
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int py = 0; py < p.height; ++py)
+    for (int px = 0; px < p.width; ++px) {
+      const double sx = (2.0 * (px + 0.5) / p.width - 1) * th,
+                   sy = (1 - 2.0 * (py + 0.5) / p.height) * th * p.height / p.width;
+      const V d = norm(fwd + sx * right + sy * up);
+      // Background: ground plane z = 0 with the cloud shadow, or a sky gradient.
+      double bg[3];
+      if (d.z < 0) {
+        const double t = -eye.z / d.z;
+        const V q = eye + t * d;
+        const double shadow = std::exp(-depth_to_sun(g, density, q, sun, kappa, 1.0));
+        const double lambert = std::max(0.0, sun.z);
+        const double s = 0.25 + 0.75 * shadow * lambert;
+        bg[0] = 0.32 * s, bg[1] = 0.38 * s, bg[2] = 0.22 * s;  // grassland
+      } else {
+        const double h = std::min(1.0, d.z * 2);
+        bg[0] = 0.55 - 0.30 * h, bg[1] = 0.70 - 0.25 * h, bg[2] = 0.95 - 0.10 * h;  // sky
+      }
+      double col[3] = {0, 0, 0}, trans = 1;
+      double t0, t1;
+      if (box(g, eye, d, t0, t1)) {
+        for (double t = t0 + 0.5 * p.step; t < t1 && trans > 0.005; t += p.step) {
+          const V q = eye + t * d;
+          const double rho = sample(g, density, q);
+          if (rho <= 1e-4) continue;
+          const double a = 1 - std::exp(-kappa * rho * p.step);
+          const double l = std::min(1.5, sample(g, light, q) / lnorm);
+          const double shade = 0.25 + 0.85 * l;  // ambient sky light + lattice-Boltzmann sunlight
+          col[0] += trans * a * shade * 1.00, col[1] += trans * a * shade * 0.98, col[2] += trans * a * shade * 0.95;
+          trans *= 1 - a;
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        const double v = col[c] + trans * bg[c];
+        img[(static_cast<std::size_t>(py) * p.width + px) * 3 + c] =
+            static_cast<std::uint8_t>(std::lround(255 * std::pow(std::clamp(v, 0.0, 1.0), 1 / 2.2)));
+      }
+    }
+  return img;
+}
+
+}  // namespace nephos::lbm
