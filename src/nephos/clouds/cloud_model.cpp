@@ -107,14 +107,11 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
 CubeMap<float> mask_cube(const weather::WeatherMasks& masks, CloudType type, int n) {
   CubeMap<float> c(n);
   const auto& m = masks[type];
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const earth::Geodetic g = earth::geodetic(c.texel_direction(f, i, j) * earth::radius_m);
-        const float v = weather::sample_bilinear(masks.grid, m, g.lat_deg, g.lon_deg);
-        c.texel(f, i, j) = std::isnan(v) ? 0.0f : v;
-      }
+  c.fill([&](const earth::Vec3& d) {
+    const earth::Geodetic g = earth::geodetic(d * earth::radius_m);
+    const float v = weather::sample_bilinear(masks.grid, m, g.lat_deg, g.lon_deg);
+    return std::isnan(v) ? 0.0f : v;
+  });
   return c;
 }
 

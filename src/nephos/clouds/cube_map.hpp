@@ -35,6 +35,15 @@ class CubeMap {
     return glm::normalize(d);
   }
 
+  /// Sets every texel to value(direction through its centre), in parallel (OpenMP).
+  template <class F>
+  void fill(F&& value) {
+#pragma omp parallel for collapse(2) schedule(static)
+    for (int f = 0; f < 6; ++f)
+      for (int j = 0; j < n_; ++j)
+        for (int i = 0; i < n_; ++i) texel(f, i, j) = value(texel_direction(f, i, j));
+  }
+
   /// Bilinear value in direction d (any length > 0).
   T sample(const earth::Vec3& d) const {
     const double ax = std::abs(d.x), ay = std::abs(d.y), az = std::abs(d.z);

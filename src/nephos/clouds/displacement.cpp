@@ -16,16 +16,12 @@ WindField make_wind_field(const weather::WeatherGrid& weather, double altitude_m
   w.altitude_m = altitude_m;
   w.velocity_m_s = CubeMap<glm::vec3>(n);
   const weather::WeatherSampler sampler(weather);
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const earth::Vec3 d = w.velocity_m_s.texel_direction(f, i, j);
-        const earth::Geodetic g = earth::geodetic(d * earth::radius_m);
-        const weather::WeatherSample s = sampler.sample(g.lat_deg, g.lon_deg, altitude_m);
-        const double u = std::isnan(s.u_m_s) ? 0.0 : s.u_m_s, v = std::isnan(s.v_m_s) ? 0.0 : s.v_m_s;
-        w.velocity_m_s.texel(f, i, j) = glm::vec3(u * earth::local_east(d) + v * earth::local_north(d));
-      }
+  w.velocity_m_s.fill([&](const earth::Vec3& d) {
+    const earth::Geodetic g = earth::geodetic(d * earth::radius_m);
+    const weather::WeatherSample s = sampler.sample(g.lat_deg, g.lon_deg, altitude_m);
+    const double u = std::isnan(s.u_m_s) ? 0.0 : s.u_m_s, v = std::isnan(s.v_m_s) ? 0.0 : s.v_m_s;
+    return glm::vec3(u * earth::local_east(d) + v * earth::local_north(d));
+  });
   return w;
 }
 
@@ -49,12 +45,7 @@ DisplacementMap DisplacementMap::build(const WindField& wind, double hours, int 
   m.hours_ = hours;
   if (hours == 0) return m;
   m.upwind_ = CubeMap<glm::vec3>(n);
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        m.upwind_.texel(f, i, j) =
-            glm::vec3(trace_upwind(wind, m.upwind_.texel_direction(f, i, j), hours * 3600.0, step_s));
+  m.upwind_.fill([&](const earth::Vec3& d) { return glm::vec3(trace_upwind(wind, d, hours * 3600.0, step_s)); });
   return m;
 }
 
@@ -62,14 +53,9 @@ DisplacementMap DisplacementMap::advanced(const WindField& wind, double hours, d
   if (is_identity()) return build(wind, hours_ + hours, n, step_s);
   DisplacementMap m;
   m.hours_ = hours_ + hours;
-  n = upwind_.size();
-  m.upwind_ = CubeMap<glm::vec3>(n);
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        m.upwind_.texel(f, i, j) =
-            glm::vec3(upwind(trace_upwind(wind, m.upwind_.texel_direction(f, i, j), hours * 3600.0, step_s)));
+  m.upwind_ = CubeMap<glm::vec3>(upwind_.size());
+  m.upwind_.fill(
+      [&](const earth::Vec3& d) { return glm::vec3(upwind(trace_upwind(wind, d, hours * 3600.0, step_s))); });
   return m;
 }
 

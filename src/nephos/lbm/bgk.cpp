@@ -29,7 +29,6 @@ void BgkSolver::step() {
   const float shift = static_cast<float>(xi_);  // u_eq = u + xi F / rho (eq. 10, tau = 1)
   const float sfx = shift * static_cast<float>(force_[0]), sfy = shift * static_cast<float>(force_[1]),
               sfz = shift * static_cast<float>(force_[2]);
-  const float wa = (1.0f - d) / 12.0f, wb = (1.0f - d) / 24.0f;
 #pragma omp parallel
   {
     // Per-thread row buffers: populations (19 x nx) and the row's moments.
@@ -75,15 +74,12 @@ void BgkSolver::step() {
           const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
           const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
           const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
-          // Shifted equilibrium (d3q19::equilibrium_shifted), written out per direction class.
-          const float w = i == 0 ? d : i <= 6 ? wa : wb;
-          const float k1 = i == 0 ? 0.0f : i <= 6 ? 1.0f / 6.0f : 1.0f / 12.0f;
-          const float k2 = i == 0 ? 0.0f : i <= 6 ? 0.25f : 0.125f;
-          const float k3 = i == 0 ? 0.5f : i <= 6 ? 1.0f / 12.0f : 1.0f / 24.0f;
+          // Shifted equilibrium (d3q19::equilibrium_shifted), vectorised over the row.
+          const auto e = d3q19::equilibrium_coefficients<float>(i, d);
           for (int x = 0; x < nx; ++x) {
             const float cu = cx * ux[x] + cy * uy[x] + cz * uz[x];
             const float u2 = ux[x] * ux[x] + uy[x] * uy[x] + uz[x] * uz[x];
-            const float feq = w * drho[x] + rho[x] * (k1 * cu + k2 * cu * cu - k3 * u2);
+            const float feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
             o[x] = fi[x] - omega * (fi[x] - feq);
           }
         }

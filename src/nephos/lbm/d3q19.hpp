@@ -35,10 +35,16 @@ inline void equilibrium(T rho, T ux, T uy, T uz, T d, T* feq) {
   }
 }
 
-/// Rest weight w_i: the equilibrium of unit density at rest (d, (1-d)/12, (1-d)/24).
+/// Coefficients of the equilibrium per direction: f_i = w_i rho + rho (k1 c.u + k2 (c.u)^2 - k3 u^2).
 template <class T>
-inline T rest_weight(int i, T d) {
-  return i == 0 ? d : i <= 6 ? (T(1) - d) / T(12) : (T(1) - d) / T(24);
+struct EquilibriumCoefficients {
+  T w, k1, k2, k3;
+};
+template <class T>
+constexpr EquilibriumCoefficients<T> equilibrium_coefficients(int i, T d) {
+  if (i == 0) return {d, T(0), T(0), T(0.5)};
+  if (i <= 6) return {(T(1) - d) / T(12), T(1) / T(6), T(0.25), T(1) / T(12)};
+  return {(T(1) - d) / T(24), T(1) / T(12), T(0.125), T(1) / T(24)};
 }
 
 /// The equilibrium minus w_i * rho_ref ("DDF shifting", as in FluidX3D): populations are
@@ -47,13 +53,11 @@ inline T rest_weight(int i, T d) {
 template <class T>
 inline void equilibrium_shifted(T drho, T rho, T ux, T uy, T uz, T d, T* out) {
   const T u2 = ux * ux + uy * uy + uz * uz;
-  out[0] = d * drho - rho * T(0.5) * u2;
-  const T a = (T(1) - d) / T(12), b = (T(1) - d) / T(24);
-  for (int i = 1; i < q; ++i) {
+  for (int i = 0; i < q; ++i) {
+    const auto e = equilibrium_coefficients<T>(i, d);
     const T cu = T(cx[static_cast<std::size_t>(i)]) * ux + T(cy[static_cast<std::size_t>(i)]) * uy +
                  T(cz[static_cast<std::size_t>(i)]) * uz;
-    out[i] = i <= 6 ? a * drho + rho * (cu / T(6) + cu * cu / T(4) - u2 / T(12))
-                    : b * drho + rho * (cu / T(12) + cu * cu / T(8) - u2 / T(24));
+    out[i] = e.w * drho + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
   }
 }
 

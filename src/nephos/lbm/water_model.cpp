@@ -262,14 +262,11 @@ void WaterModel::step() {
             const float* t = tmp_[c].data() + iu * n + base;
             float* o = f_[c].data() + iu * n + base;
             const double cx = d3q19::cx[iu], cy = d3q19::cy[iu], cz = d3q19::cz[iu];
-            const double w = d3q19::rest_weight<double>(i, d);
-            const double k1 = i == 0 ? 0.0 : i <= 6 ? 1.0 / 6.0 : 1.0 / 12.0;
-            const double k2 = i == 0 ? 0.0 : i <= 6 ? 0.25 : 0.125;
-            const double k3 = i == 0 ? 0.5 : i <= 6 ? 1.0 / 12.0 : 1.0 / 24.0;
+            const auto e = d3q19::equilibrium_coefficients<double>(i, d);
             for (int x = 0; x < nx; ++x) {
               const double cu = cx * vx[x] + cy * vy[x] + cz * vz[x];
               const double u2 = vx[x] * vx[x] + vy[x] * vy[x] + vz[x] * vz[x];
-              const double feq = w * drho[x] + rho[x] * (k1 * cu + k2 * cu * cu - k3 * u2);
+              const double feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
               tmpd[x] = t[x] - omega * (t[x] - feq);
             }
             for (int x = 0; x < nx; ++x) o[x] = static_cast<float>(tmpd[x]);
