@@ -12,6 +12,7 @@ packages=(
   libnetcdf-dev netcdf-bin            # CF-NetCDF output + ncdump
   libpng-dev                          # PNG previews
   libopenexr-dev                      # multi-channel EXR output
+  libopenvdb-dev libboost-iostreams-dev libtbb-dev   # volume output (clouds.vdb); OpenVDB's find module needs both
   libglm-dev                          # vector maths
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line

@@ -218,6 +218,7 @@ class Lbm(unittest.TestCase):
             self.assertIn("12 steps", r.stdout)
             self.assertRegex(r.stdout, r"lighting: \d+ steps to residual")
             self.assertEqual((d / "a" / "render.png").read_bytes()[:8], b"\x89PNG\r\n\x1a\n")
+            self.assertEqual((d / "a" / "clouds.vdb").read_bytes()[:4], b" BDV")  # OpenVDB magic 0x56444220
             r = run("lbm", "--grid", "16x16x16", "--iterations", "6", "--checkpoint-every", "6", "--size", "64x48", "--out", d / "b")
             self.assertEqual(r.returncode, 0, r.stderr)
             r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--size", "64x48", "--out", d / "c")

@@ -20,6 +20,7 @@
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
 #include "nephos/io/png.hpp"
+#include "nephos/io/vdb_writer.hpp"
 #include "nephos/lbm/lbm_io.hpp"
 #include "nephos/lbm/lighting.hpp"
 #include "nephos/lbm/percolation.hpp"
@@ -333,6 +334,12 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
                             {{"title", "nephos lattice-Boltzmann convective cloud"},
                              {"steps", std::to_string(model.steps_done())},
                              {"seed", std::to_string(g.seed)}});
+  // The volumes for Blender/Houdini: "density" is the cloud the renderers expect.
+  const int nx = grid.nx, ny = grid.ny, nz = grid.nz;
+  io::write_vdb(out / "clouds.vdb", {{"density", nx, ny, nz, &cloud, 1.0, true, 0.0f},
+                                     {"vapour", nx, ny, nz, &vapour, 1.0, false, -1.0f},
+                                     {"temperature", nx, ny, nz, &temperature, 1.0, false, -1.0f},
+                                     {"light", nx, ny, nz, &light, 1.0, false, 0.0f}});
   const long done = model.steps_done() - first;
   std::cout << fmt::format("water model {}: {} steps in {:.2f} s ({:.3f} s/step, {} threads)\n", grid.describe(), done,
                            t_water, done > 0 ? t_water / static_cast<double>(done) : 0.0, thread_count());
