@@ -13,6 +13,7 @@ packages=(
   libpng-dev                          # PNG previews
   libopenexr-dev                      # multi-channel EXR output
   libopenvdb-dev libboost-iostreams-dev libtbb-dev   # volume output (clouds.vdb); OpenVDB's find module needs both
+  libopenmpi-dev openmpi-bin          # nephos lbm across processes (mpirun)
   libglm-dev                          # vector maths
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line

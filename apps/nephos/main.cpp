@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "lbm_bench.hpp"
+#include "lbm_mpi.hpp"
 #include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
@@ -252,42 +253,63 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   }
   if (o.silos >= 0) params.silos = o.silos;
   const fs::path out(o.out);
-  lbm::WaterModel model =
-      o.resume.empty() ? lbm::WaterModel(lbm::Grid3::parse(o.grid), params) : lbm::WaterModel::load(o.resume);
-  if (o.resume.empty()) {
-    model.initialise(lbm::make_silos(model.grid(), params, g.seed), g.seed);
-    spdlog::info("water model {} with {} silos (seed {})", model.grid().describe(), params.silos, g.seed);
+  std::vector<float> vapour, temperature;
+  lbm::Grid3 grid;
+  long done = 0, steps_total = 0;
+  double t_water = 0;
+  if (app::mpi_launched()) {
+    if (!o.resume.empty() || o.checkpoint_every > 0)
+      throw ValueError("checkpoints are not supported with several MPI processes yet", {.key = "--checkpoint-every"});
+    grid = lbm::Grid3::parse(o.grid);
+    auto r = app::run_water_mpi(grid, params, g.seed, o.iterations);
+    if (app::mpi_rank() != 0) return 0;  // rank 0 runs the remaining stages and writes the outputs
+    vapour = std::move(r.vapour);
+    temperature = std::move(r.temperature);
+    done = steps_total = o.iterations;
+    t_water = r.seconds;
+    ensure_directory(out);
+    spdlog::info("water model on {} MPI processes", app::mpi_size());
   } else {
-    spdlog::info("resumed {} at step {} from {}", model.grid().describe(), model.steps_done(), o.resume);
-  }
-  ensure_directory(out);
-  const auto& grid = model.grid();
-  auto check = [&] {
-    std::string what;
-    std::size_t cell = 0;
-    if (model.check(what, cell)) return;
-    const auto ck = out / "checkpoint_failed.bin";
-    model.save(ck);
-    const auto x = cell % static_cast<std::size_t>(grid.nx),
-               y = cell / static_cast<std::size_t>(grid.nx) % static_cast<std::size_t>(grid.ny),
-               z = cell / (static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny));
-    throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={}); state saved to {}", model.steps_done(),
-                                   what, x, y, z, ck.string()));
-  };
-  const auto t0 = std::chrono::steady_clock::now();
-  const long first = model.steps_done();
-  {
-    Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
-    while (model.steps_done() < o.iterations) {
-      model.step();
-      progress.advance();
-      if (model.steps_done() % 10 == 0) check();
-      if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0) model.save(out / "checkpoint.bin");
+    lbm::WaterModel model =
+        o.resume.empty() ? lbm::WaterModel(lbm::Grid3::parse(o.grid), params) : lbm::WaterModel::load(o.resume);
+    if (o.resume.empty()) {
+      model.initialise(lbm::make_silos(model.grid(), params, g.seed), g.seed);
+      spdlog::info("water model {} with {} silos (seed {})", model.grid().describe(), params.silos, g.seed);
+    } else {
+      spdlog::info("resumed {} at step {} from {}", model.grid().describe(), model.steps_done(), o.resume);
     }
+    ensure_directory(out);
+    grid = model.grid();
+    auto check = [&] {
+      std::string what;
+      std::size_t cell = 0;
+      if (model.check(what, cell)) return;
+      const auto ck = out / "checkpoint_failed.bin";
+      model.save(ck);
+      const auto x = cell % static_cast<std::size_t>(grid.nx),
+                 y = cell / static_cast<std::size_t>(grid.nx) % static_cast<std::size_t>(grid.ny),
+                 z = cell / (static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny));
+      throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={}); state saved to {}", model.steps_done(),
+                                     what, x, y, z, ck.string()));
+    };
+    const auto t0 = std::chrono::steady_clock::now();
+    const long first = model.steps_done();
+    {
+      Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
+      while (model.steps_done() < o.iterations) {
+        model.step();
+        progress.advance();
+        if (model.steps_done() % 10 == 0) check();
+        if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0) model.save(out / "checkpoint.bin");
+      }
+    }
+    check();
+    t_water = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    vapour = model.vapour();
+    temperature = model.temperature();
+    done = model.steps_done() - first;
+    steps_total = model.steps_done();
   }
-  check();
-  const double t_water = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const auto vapour = model.vapour(), temperature = model.temperature();
   std::vector<float> percolated;
   double t_perc = 0;
   int perc_steps = 0;
@@ -332,7 +354,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
       {"light", "steady-state photon density (sum over lattice directions; sunlight injected at 1)", "1", &light});
   lbm::write_lattice_netcdf(out / "lbm.nc", grid, fields,
                             {{"title", "nephos lattice-Boltzmann convective cloud"},
-                             {"steps", std::to_string(model.steps_done())},
+                             {"steps", std::to_string(steps_total)},
                              {"seed", std::to_string(g.seed)}});
   // The volumes for Blender/Houdini: "density" is the cloud the renderers expect.
   const int nx = grid.nx, ny = grid.ny, nz = grid.nz;
@@ -340,7 +362,6 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
                                      {"vapour", nx, ny, nz, &vapour, 1.0, false, -1.0f},
                                      {"temperature", nx, ny, nz, &temperature, 1.0, false, -1.0f},
                                      {"light", nx, ny, nz, &light, 1.0, false, 0.0f}});
-  const long done = model.steps_done() - first;
   std::cout << fmt::format("water model {}: {} steps in {:.2f} s ({:.3f} s/step, {} threads)\n", grid.describe(), done,
                            t_water, done > 0 ? t_water / static_cast<double>(done) : 0.0, thread_count());
   if (o.percolation > 0)
@@ -356,6 +377,16 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Under mpirun (several ranks) MPI is initialised for `nephos lbm`; plain runs never touch MPI.
+  struct MpiSession {
+    bool on;
+    MpiSession(int& c, char**& v) : on(app::mpi_launched()) {
+      if (on) app::mpi_init(c, v);
+    }
+    ~MpiSession() {
+      if (on) app::mpi_finalize();
+    }
+  } mpi_session(argc, argv);
   CLI::App app{"nephos: real weather data to three-dimensional clouds"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("nephos ") + NEPHOS_VERSION);

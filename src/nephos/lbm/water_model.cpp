@@ -55,7 +55,16 @@ namespace {
 double reference(const WaterModelParams& p, int c) { return c == 0 ? p.rho10 : 0.5; }
 }  // namespace
 
-WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), p_(params) {
+WaterModel::WaterModel(Grid3 global, WaterModelParams params, int y_begin, int y_end)
+    : WaterModel(Grid3{global.nx, y_end - y_begin + 2, global.nz}, params) {
+  if (y_begin < 0 || y_end > global.ny || y_end - y_begin < 2)
+    throw ValueError("a slab needs at least 2 rows inside the lattice", {.key = "mpi"});
+  global_ = global;
+  y_begin_ = y_begin;
+  halo_ = 1;
+}
+
+WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(grid), p_(params) {
   const std::size_t n = g_.cells();
   for (int c = 0; c < 2; ++c) {
     f_[c].assign(d3q19::q * n, 0.0f);
@@ -73,18 +82,20 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
     for (int y = 0; y < g_.ny; ++y)
       for (int x = 0; x < g_.nx; ++x) {
         const std::size_t cell = g_.index(x, y, z);
+        const int gy = global_y(y);
+        const std::uint64_t gcell = global_.index(x, gy, z);  // hashes use global indices
         double vapour = p_.vapour_background * p_.rho10;
         for (const Silo& s : silos) {
           // Minimum-image horizontal distance on the torus.
-          double dx = std::abs(x + 0.5 - s.x), dy = std::abs(y + 0.5 - s.y);
+          double dx = std::abs(x + 0.5 - s.x), dy = std::abs(gy + 0.5 - s.y);
           dx = std::min(dx, g_.nx - dx);
-          dy = std::min(dy, g_.ny - dy);
+          dy = std::min(dy, global_.ny - dy);
           const double zc = z + 0.5;
           const double dist =
               zc <= s.height ? std::hypot(dx, dy) : std::sqrt(dx * dx + dy * dy + (zc - s.height) * (zc - s.height));
           double v;
           if (dist <= s.radius) {
-            v = p_.rho10 * (0.99 + 0.02 * uniform01(seed, 0x7a90, cell));
+            v = p_.rho10 * (0.99 + 0.02 * uniform01(seed, 0x7a90, gcell));
           } else {
             const double t = std::min(1.0, (dist - s.radius) / s.radius);
             v = p_.rho10 + t * (p_.vapour_background * p_.rho10 - p_.rho10);
@@ -120,32 +131,43 @@ void WaterModel::initialise_uniform(double vapour, double temperature, double pe
 }
 
 void WaterModel::step() {
+  if (exchange_) exchange_(*this, Exchange::populations);
+  step_stage(Stage::stream);
+  if (exchange_) exchange_(*this, Exchange::densities);
+  step_stage(Stage::collide);
+}
+
+void WaterModel::step_stage(Stage stage) {
   const std::size_t n = g_.cells();
   const int nx = g_.nx;
   const auto nxs = static_cast<std::size_t>(nx);
-  const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-  const float rho10 = static_cast<float>(p_.rho10);
-  // Pass 1: stream both components into tmp_; densities and Psi_1.
+  if (stage == Stage::stream) {
+    const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
+    const float rho10 = static_cast<float>(p_.rho10);
+    // Pass 1: stream both components into tmp_; densities and Psi_1.
 #pragma omp parallel for collapse(2) schedule(static)
-  for (int z = 0; z < g_.nz; ++z)
-    for (int y = 0; y < g_.ny; ++y) {
-      const std::size_t base = g_.index(0, y, z);
-      for (int c = 0; c < 2; ++c) {
-        gather_row(row_sources(g_, f_[c].data(), y, z, zb), tmp_[c].data() + base, n);
-        float* rho = rho_[c].data() + base;
-        const float ref = static_cast<float>(reference(p_, c));
-        for (int x = 0; x < nx; ++x) rho[x] = 0;
-        for (int i = 0; i < d3q19::q; ++i) {
-          const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
-          for (int x = 0; x < nx; ++x) rho[x] += t[x];
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = 0; y < g_.ny; ++y) {
+        const std::size_t base = g_.index(0, y, z);
+        for (int c = 0; c < 2; ++c) {
+          gather_row(row_sources(g_, f_[c].data(), y, z, zb), tmp_[c].data() + base, n);
+          float* rho = rho_[c].data() + base;
+          const float ref = static_cast<float>(reference(p_, c));
+          for (int x = 0; x < nx; ++x) rho[x] = 0;
+          for (int i = 0; i < d3q19::q; ++i) {
+            const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
+            for (int x = 0; x < nx; ++x) rho[x] += t[x];
+          }
+          for (int x = 0; x < nx; ++x) rho[x] += ref;
         }
-        for (int x = 0; x < nx; ++x) rho[x] += ref;
+        float* psi = psi1_.data() + base;
+        const float* r1 = rho_[0].data() + base;
+        for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
       }
-      float* psi = psi1_.data() + base;
-      const float* r1 = rho_[0].data() + base;
-      for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
-    }
 
+    return;
+  }
+  const int y0 = owned_begin(), y1 = owned_end();
   // Pass 2, row by row with unit-stride loops over x: gradients, forces, equilibrium
   // velocities, collision (in double, rounded to FP32 once on store).
   const double xi[2] = {p_.xi_vapour, p_.xi_temperature};
@@ -162,7 +184,7 @@ void WaterModel::step() {
     std::vector<float> nb1(nxs), nb2(nxs);
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
-      for (int y = 0; y < g_.ny; ++y) {
+      for (int y = y0; y < y1; ++y) {
         const std::size_t base = g_.index(0, y, z);
         // Isotropic gradients of Psi_1 and Psi_2 = rho_2 (walls: the row beyond is the row itself).
         for (int k = 0; k < 6; ++k)
@@ -298,21 +320,61 @@ void WaterModel::step() {
 
 std::vector<float> WaterModel::density(int c) const {
   const std::size_t n = g_.cells();
-  std::vector<float> out(n, 0.0f);
+  const int own = owned_end() - owned_begin();
+  std::vector<float> out(static_cast<std::size_t>(g_.nx) * static_cast<std::size_t>(own) *
+                         static_cast<std::size_t>(g_.nz));
   const float ref = static_cast<float>(reference(p_, c));
-#pragma omp parallel for schedule(static)
-  for (std::size_t cell = 0; cell < n; ++cell) {
-    float s = ref;
-    for (int i = 0; i < d3q19::q; ++i) s += f_[c][static_cast<std::size_t>(i) * n + cell];
-    out[cell] = s;
-  }
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int z = 0; z < g_.nz; ++z)
+    for (int y = 0; y < own; ++y)
+      for (int x = 0; x < g_.nx; ++x) {
+        const std::size_t cell = g_.index(x, y + owned_begin(), z);
+        float s = ref;
+        for (int i = 0; i < d3q19::q; ++i) s += f_[c][static_cast<std::size_t>(i) * n + cell];
+        out[(static_cast<std::size_t>(z) * own + static_cast<std::size_t>(y)) * g_.nx + x] = s;
+      }
   return out;
 }
 
 double WaterModel::total(int c) const {
-  double s = reference(p_, c) * static_cast<double>(g_.cells());
-  for (float v : f_[c]) s += v;
+  double s = 0;
+  for (float v : density(c)) s += v;
   return s;
+}
+
+std::vector<float> WaterModel::pack_row(Exchange kind, int y) const {
+  std::vector<float> out;
+  const std::size_t n = g_.cells();
+  if (kind == Exchange::populations) {
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i)
+        for (int z = 0; z < g_.nz; ++z) {
+          const float* r = f_[c].data() + static_cast<std::size_t>(i) * n + g_.index(0, y, z);
+          out.insert(out.end(), r, r + g_.nx);
+        }
+  } else {
+    for (const std::vector<float>* f : {&rho_[0], &rho_[1], &psi1_})
+      for (int z = 0; z < g_.nz; ++z) {
+        const float* r = f->data() + g_.index(0, y, z);
+        out.insert(out.end(), r, r + g_.nx);
+      }
+  }
+  return out;
+}
+
+void WaterModel::unpack_row(Exchange kind, int y, const std::vector<float>& data) {
+  const std::size_t n = g_.cells();
+  std::size_t k = 0;
+  if (kind == Exchange::populations) {
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i)
+        for (int z = 0; z < g_.nz; ++z, k += static_cast<std::size_t>(g_.nx))
+          std::copy_n(data.data() + k, g_.nx, f_[c].data() + static_cast<std::size_t>(i) * n + g_.index(0, y, z));
+  } else {
+    for (std::vector<float>* f : {&rho_[0], &rho_[1], &psi1_})
+      for (int z = 0; z < g_.nz; ++z, k += static_cast<std::size_t>(g_.nx))
+        std::copy_n(data.data() + k, g_.nx, f->data() + g_.index(0, y, z));
+  }
 }
 
 bool WaterModel::check(std::string& what, std::size_t& cell) const {

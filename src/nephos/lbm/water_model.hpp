@@ -16,6 +16,7 @@
 // to rest equilibrium ("equalising directional densities"), with walls beyond.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -52,17 +53,40 @@ std::vector<Silo> make_silos(const Grid3& g, const WaterModelParams& p, std::uin
 class WaterModel {
  public:
   WaterModel(Grid3 grid, WaterModelParams params);
+  /// A slab of the global lattice for domain decomposition: rows y_begin <= y < y_end, plus one
+  /// halo row on each side that `set_exchange`'s callback fills from the neighbouring slabs.
+  WaterModel(Grid3 global, WaterModelParams params, int y_begin, int y_end);
+
+  /// What a halo exchange moves: the post-collision populations before streaming, or the
+  /// densities and Psi_1 before the force computation.
+  enum class Exchange { populations, densities };
+  /// Called twice per step in slab mode (populations, then densities).
+  void set_exchange(std::function<void(WaterModel&, Exchange)> exchange) { exchange_ = std::move(exchange); }
+  /// Packs / unpacks one local row (y_local) of the fields an exchange moves.
+  std::vector<float> pack_row(Exchange kind, int y_local) const;
+  void unpack_row(Exchange kind, int y_local, const std::vector<float>& data);
+  /// Local rows: halo at 0 and local_ny() - 1 in slab mode; owned rows [owned_begin, owned_end).
+  int local_ny() const { return g_.ny; }
+  int owned_begin() const { return halo_; }
+  int owned_end() const { return g_.ny - halo_; }
+  const Grid3& global_grid() const { return global_; }
+  int y_begin() const { return y_begin_; }
   /// Initial conditions: silo vapour (uniform in [0.99, 1.01] rho10 inside, linear fall-off
   /// outside over one radius to the background), linear temperature from bottom to top.
   void initialise(const std::vector<Silo>& silos, std::uint64_t seed);
   /// Uniform vapour and temperature at rest, vapour perturbed by +-`perturbation` (hashed).
   void initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed);
   void step();
+  /// The two halves of step() for drivers that exchange halos themselves: stream (pass 1:
+  /// streaming, densities, Psi_1) then collide (pass 2: forces, collision, boundary layers).
+  enum class Stage { stream, collide };
+  void step_stage(Stage stage);
   long steps_done() const { return step_; }
 
   const Grid3& grid() const { return g_; }
   const WaterModelParams& params() const { return p_; }
-  /// Densities of the current state (vapour = component 1, temperature = component 2).
+  /// Densities of the owned cells (vapour = component 1, temperature = component 2), x fastest,
+  /// then owned y, then z.
   std::vector<float> vapour() const { return density(0); }
   std::vector<float> temperature() const { return density(1); }
   /// Sum of a component's populations over the grid (double accumulation).
@@ -79,7 +103,11 @@ class WaterModel {
 
  private:
   std::vector<float> density(int component) const;
-  Grid3 g_;
+  int global_y(int y_local) const { return ((y_local - halo_ + y_begin_) % global_.ny + global_.ny) % global_.ny; }
+  Grid3 g_;  ///< local grid (the whole lattice unless in slab mode)
+  Grid3 global_;
+  int y_begin_ = 0, halo_ = 0;
+  std::function<void(WaterModel&, Exchange)> exchange_;
   WaterModelParams p_;
   long step_ = 0;
   std::vector<float> f_[2], tmp_[2];  // post-collision populations and the streaming buffer
