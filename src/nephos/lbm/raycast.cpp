@@ -86,6 +86,65 @@ std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& dens
   }
   std::vector<std::uint8_t> img(static_cast<std::size_t>(p.width) * p.height * 3);
   const double kappa = p.extinction_per_density;
+  // Shadow map: the ground's transmittance towards the sun, an orthographic projection of the
+  // density along the sun direction, at one sample per lattice unit over the box's shadow.
+  const double sx0 = std::min(0.0, -g.nz * sun.x / std::max(sun.z, 1e-3)) - 1,
+               sx1 = g.nx + std::max(0.0, -g.nz * sun.x / std::max(sun.z, 1e-3)) + 1;
+  const double sy0 = std::min(0.0, -g.nz * sun.y / std::max(sun.z, 1e-3)) - 1,
+               sy1 = g.ny + std::max(0.0, -g.nz * sun.y / std::max(sun.z, 1e-3)) + 1;
+  const int mw = static_cast<int>(std::ceil(sx1 - sx0)) + 1, mh = static_cast<int>(std::ceil(sy1 - sy0)) + 1;
+  std::vector<float> shadow_map(static_cast<std::size_t>(mw) * static_cast<std::size_t>(mh), 1.0f);
+  if (sun.z > 0) {
+#pragma omp parallel for schedule(dynamic, 8)
+    for (int j = 0; j < mh; ++j)
+      for (int i = 0; i < mw; ++i)
+        shadow_map[static_cast<std::size_t>(j) * mw + i] =
+            static_cast<float>(std::exp(-depth_to_sun(g, density, V{sx0 + i, sy0 + j, 0}, sun, kappa, 1.0)));
+  }
+  // Empty-space skipping: the maximum density of each 8^3 brick grown by one voxel (the
+  // trilinear footprint); rays jump over bricks that hold no cloud.
+  constexpr int brick = 8;
+  const int bx = (g.nx + brick - 1) / brick, by = (g.ny + brick - 1) / brick, bz = (g.nz + brick - 1) / brick;
+  std::vector<float> bmax(static_cast<std::size_t>(bx) * by * bz, 0.0f);
+  for (int z = 0; z < g.nz; ++z)
+    for (int y = 0; y < g.ny; ++y)
+      for (int x = 0; x < g.nx; ++x) {
+        const float v = density[g.index(x, y, z)];
+        if (v <= 0) continue;
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int cx = (x + dx) / brick, cy = (y + dy) / brick, cz = (z + dz) / brick;
+              if (x + dx < 0 || y + dy < 0 || z + dz < 0 || cx >= bx || cy >= by || cz >= bz) continue;
+              float& m = bmax[(static_cast<std::size_t>(cz) * by + cy) * bx + cx];
+              m = std::max(m, v);
+            }
+      }
+  // Distance along d from q to the exit of q's brick.
+  auto brick_exit = [&](V q, V d) {
+    const double b[3] = {std::floor(q.x / brick) * brick, std::floor(q.y / brick) * brick, std::floor(q.z / brick) * brick};
+    const double qq[3] = {q.x, q.y, q.z}, dd[3] = {d.x, d.y, d.z};
+    double t = 1e30;
+    for (int a = 0; a < 3; ++a) {
+      if (dd[a] > 1e-12) t = std::min(t, (b[a] + brick - qq[a]) / dd[a]);
+      if (dd[a] < -1e-12) t = std::min(t, (b[a] - qq[a]) / dd[a]);
+    }
+    return t;
+  };
+  auto brick_empty = [&](V q) {
+    const int cx = static_cast<int>(std::floor(q.x / brick)), cy = static_cast<int>(std::floor(q.y / brick)),
+              cz = static_cast<int>(std::floor(q.z / brick));
+    if (cx < 0 || cy < 0 || cz < 0 || cx >= bx || cy >= by || cz >= bz) return true;
+    return bmax[(static_cast<std::size_t>(cz) * by + cy) * bx + cx] <= 1e-4f;
+  };
+  auto shadow_at = [&](double x, double y) {
+    const double fx = x - sx0, fy = y - sy0;
+    if (sun.z <= 0 || fx < 0 || fy < 0 || fx >= mw - 1 || fy >= mh - 1) return 1.0;
+    const int i = static_cast<int>(fx), j = static_cast<int>(fy);
+    const double tx = fx - i, ty = fy - j;
+    auto at = [&](int a, int b) { return static_cast<double>(shadow_map[static_cast<std::size_t>(b) * mw + a]); };
+    return (1 - ty) * ((1 - tx) * at(i, j) + tx * at(i + 1, j)) + ty * ((1 - tx) * at(i, j + 1) + tx * at(i + 1, j + 1));
+  };
 #pragma omp parallel for schedule(dynamic, 4)
   for (int py = 0; py < p.height; ++py)
     for (int px = 0; px < p.width; ++px) {
@@ -97,7 +156,7 @@ std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& dens
       if (d.z < 0) {
         const double t = -eye.z / d.z;
         const V q = eye + t * d;
-        const double shadow = std::exp(-depth_to_sun(g, density, q, sun, kappa, 1.0));
+        const double shadow = shadow_at(q.x, q.y);
         const double lambert = std::max(0.0, sun.z);
         const double s = 0.25 + 0.75 * shadow * lambert;
         bg[0] = 0.32 * s, bg[1] = 0.38 * s, bg[2] = 0.22 * s;  // grassland
@@ -110,6 +169,11 @@ std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& dens
       if (box(g, eye, d, t0, t1)) {
         for (double t = t0 + 0.5 * p.step; t < t1 && trans > 0.005; t += p.step) {
           const V q = eye + t * d;
+          if (brick_empty(q)) {  // jump to the brick's exit, keeping the sample lattice of the ray
+            const double jump = brick_exit(q, d);
+            t += std::max(0.0, std::floor(jump / p.step) * p.step);
+            continue;
+          }
           const double rho = sample(g, density, q);
           if (rho <= 1e-4) continue;
           const double a = 1 - std::exp(-kappa * rho * p.step);
