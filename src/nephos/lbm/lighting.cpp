@@ -241,11 +241,13 @@ double LightingSolver::step() {
 }
 
 int LightingSolver::solve() {
-  int it = 0;
+  int it = 0, quiet = 0;
   while (it < p_.max_iterations) {
     step();
     ++it;
-    if (it > g_.nx + g_.ny + g_.nz && residual_ < p_.tolerance) break;  // after light has crossed the box
+    // Converged once the photon balance has held for 10 consecutive steps.
+    quiet = residual_ < p_.tolerance ? quiet + 1 : 0;
+    if (quiet >= 10) break;
   }
   return it;
 }
