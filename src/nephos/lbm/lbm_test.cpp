@@ -1,12 +1,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/lbm/bgk.hpp"
+#include "nephos/lbm/thermal.hpp"
 #include "nephos/lbm/water_model.hpp"
 
 namespace nephos::lbm {
@@ -223,6 +225,30 @@ TEST(WaterModel, SlabDecompositionIsBitIdentical) {
           ASSERT_EQ(v[(static_cast<std::size_t>(z) * own + y) * g.nx + x], ref[g.index(x, cuts[r] + y, z)])
               << "slab " << r << " at " << x << "," << y << "," << z;
   }
+}
+
+TEST(ThermalConvection, RayleighBenardOnset) {
+  // Growth rate of the first convective mode (wavelength 2 H, within 1 % of the critical
+  // 2.016 H) between no-slip plates, Pr = 1, at Ra = 1650 and 1800; the rate is linear in Ra
+  // near onset, so its zero is the critical Rayleigh number: 1707.76 for rigid-rigid plates
+  // (Chandrasekhar 1961). Issue: within 5 %. CI uses H = 16 (measured 1720.5, +0.7 %);
+  // NEPHOS_FULL_VALIDATION=1 runs H = 24 (measured 1713.7, +0.35 %).
+  const int h = std::getenv("NEPHOS_FULL_VALIDATION") ? 24 : 16;
+  auto growth = [h](double ra) {
+    RayleighBenard rb(2 * h, 1, h, ra, 0.1, 0.1);
+    rb.initialise(1e-3);
+    const int settle = 3000 * h * h / 256, window = 4000 * h * h / 256;  // in viscous times H^2 / nu
+    for (int t = 0; t < settle; ++t) rb.step();                          // let the faster-decaying modes die out
+    const double a1 = rb.convective_amplitude();
+    for (int t = 0; t < window; ++t) rb.step();
+    return std::log(std::abs(rb.convective_amplitude() / a1)) / window;
+  };
+  const double s1 = growth(1650), s2 = growth(1800);
+  ASSERT_LT(s1, 0);  // decays below onset
+  ASSERT_GT(s2, 0);  // grows above it
+  const double ra_c = 1650 + (1800 - 1650) * (-s1) / (s2 - s1);
+  EXPECT_NEAR(ra_c / 1707.76, 1.0, 0.05) << "Ra_c = " << ra_c;
+  RecordProperty("critical_rayleigh", std::to_string(ra_c));
 }
 
 TEST(WaterModel, CheckpointErrors) {

@@ -122,7 +122,8 @@ std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& dens
       }
   // Distance along d from q to the exit of q's brick.
   auto brick_exit = [&](V q, V d) {
-    const double b[3] = {std::floor(q.x / brick) * brick, std::floor(q.y / brick) * brick, std::floor(q.z / brick) * brick};
+    const double b[3] = {std::floor(q.x / brick) * brick, std::floor(q.y / brick) * brick,
+                         std::floor(q.z / brick) * brick};
     const double qq[3] = {q.x, q.y, q.z}, dd[3] = {d.x, d.y, d.z};
     double t = 1e30;
     for (int a = 0; a < 3; ++a) {
@@ -143,7 +144,8 @@ std::vector<std::uint8_t> raycast(const Grid3& g, const std::vector<float>& dens
     const int i = static_cast<int>(fx), j = static_cast<int>(fy);
     const double tx = fx - i, ty = fy - j;
     auto at = [&](int a, int b) { return static_cast<double>(shadow_map[static_cast<std::size_t>(b) * mw + a]); };
-    return (1 - ty) * ((1 - tx) * at(i, j) + tx * at(i + 1, j)) + ty * ((1 - tx) * at(i, j + 1) + tx * at(i + 1, j + 1));
+    return (1 - ty) * ((1 - tx) * at(i, j) + tx * at(i + 1, j)) +
+           ty * ((1 - tx) * at(i, j + 1) + tx * at(i + 1, j + 1));
   };
 #pragma omp parallel for schedule(dynamic, 4)
   for (int py = 0; py < p.height; ++py)
