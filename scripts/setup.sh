@@ -17,6 +17,7 @@ packages=(
   libglm-dev                          # vector maths
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line
+  nlohmann-json3-dev                  # weather-code JSON (Foreca)
   libspdlog-dev libfmt-dev            # logging, formatting
   libgtest-dev libgmock-dev           # tests
   libbenchmark-dev                    # benchmarks

@@ -1,0 +1,111 @@
+#include "nephos/realtime/weather_input.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "nephos/core/error.hpp"
+
+namespace nephos::realtime {
+
+TEST(WeatherCode, EveryDocumentedCodeDecodes) {
+  // 2 (day/night) x 7 cloudiness x 5 precipitation x 3 types = 210 codes.
+  int n = 0;
+  for (char dn : {'d', 'n'})
+    for (int c = 0; c <= 6; ++c)
+      for (int p = 0; p <= 4; ++p)
+        for (int t = 0; t <= 2; ++t) {
+          const std::string s{dn, static_cast<char>('0' + c), static_cast<char>('0' + p), static_cast<char>('0' + t)};
+          const WeatherCode w = parse_weather_code(s);
+          EXPECT_EQ(w.text(), s);
+          EXPECT_FALSE(w.describe().empty());
+          EXPECT_NO_THROW(recipe_from_code(w));
+          ++n;
+        }
+  EXPECT_EQ(n, 210);
+  EXPECT_EQ(parse_weather_code("D210").text(), "d210");  // case-insensitive
+  for (const char* bad : {"d700", "d050", "d003", "x000", "d00", "d0000", ""})
+    EXPECT_THROW(parse_weather_code(bad), ValueError) << bad;
+}
+
+TEST(WeatherCode, ThesisMapping) {
+  // Section 3.3.1: d000/d100/d200/d300/d400 -> 0/10/30/75/200 clouds; d300/d400 clustered.
+  const int expected[] = {0, 10, 30, 75, 200};
+  for (int c = 0; c <= 4; ++c) {
+    const CloudRecipe r = recipe_from_code(parse_weather_code("d" + std::to_string(c) + "00"));
+    EXPECT_EQ(r.sprite_clouds(), expected[c]) << c;
+    EXPECT_EQ(r.clustered, c >= 3) << c;
+  }
+  // Thin high clouds: cirrus layers, at most two; fog: low stratus; showers/thunder: cumulus.
+  const CloudRecipe ci = recipe_from_code(parse_weather_code("d500"));
+  ASSERT_EQ(ci.layers.size(), 1u);
+  EXPECT_EQ(ci.layers[0].type, SpriteCloudType::cirrus);
+  EXPECT_LE(ci.layers[0].count, 2);
+  EXPECT_EQ(recipe_from_code(parse_weather_code("n600")).layers[0].type, SpriteCloudType::low_stratus);
+  for (const char* c : {"d220", "d340"})
+    for (const auto& l : recipe_from_code(parse_weather_code(c)).layers)
+      EXPECT_NE(l.type, SpriteCloudType::stratocumulus) << c;
+  // Altitude bands are ordered: sprites below altostratus below cirrus.
+  const CloudRecipe ov = recipe_from_code(parse_weather_code("d400"));
+  double sprite_top = 0, as_base = 1e9;
+  for (const auto& l : ov.layers) {
+    if (l.type == SpriteCloudType::altostratus)
+      as_base = l.base_m;
+    else
+      sprite_top = std::max(sprite_top, l.top_m);
+  }
+  EXPECT_LT(sprite_top, as_base);
+  EXPECT_LT(as_base, ci.layers[0].base_m);
+}
+
+TEST(Metar, CloudGroups) {
+  const CloudRecipe r = recipe_from_metar("EGLL 051350Z 24015KT 9999 FEW012 SCT025CB BKN080 OVC250 12/08 Q1012");
+  ASSERT_EQ(r.layers.size(), 4u);
+  EXPECT_EQ(r.layers[0].type, SpriteCloudType::cumulus);  // FEW at 1200 ft
+  EXPECT_NEAR(r.layers[0].base_m, 1200 * 0.3048, 1e-9);   // hundreds of feet -> m (exact factor)
+  EXPECT_EQ(r.layers[0].coverage_oktas, 1.5);
+  EXPECT_EQ(r.layers[1].type, SpriteCloudType::cumulus);  // CB tower
+  EXPECT_GT(r.layers[1].top_m, 9000);
+  EXPECT_EQ(r.layers[2].type, SpriteCloudType::altostratus);  // BKN at 8000 ft (2438 m)
+  EXPECT_EQ(r.layers[3].type, SpriteCloudType::cirrus);       // OVC at 25000 ft
+  EXPECT_EQ(r.layers[3].coverage_oktas, 8);
+  EXPECT_EQ(recipe_from_metar("KSFO 051356Z 00000KT CAVOK 14/07 A3001").layers.size(), 0u);
+  EXPECT_EQ(recipe_from_metar("KJFK 051356Z SKC").sprite_clouds(), 0);
+  EXPECT_EQ(recipe_from_metar("EDDF 051350Z 0200 FG VV002").layers.at(0).type, SpriteCloudType::low_stratus);
+  EXPECT_EQ(recipe_from_metar("LFPG 051350Z OVC020").layers.at(0).type, SpriteCloudType::stratocumulus);
+  EXPECT_EQ(recipe_from_metar("LFPG 051350Z OVC004").layers.at(0).type, SpriteCloudType::low_stratus);
+  EXPECT_EQ(recipe_from_metar("LFPG 051350Z BKN007").layers.at(0).type, SpriteCloudType::low_stratus);
+  EXPECT_THROW(recipe_from_metar("EGLL 051350Z 24015KT 9999 12/08"), ValueError);
+}
+
+TEST(Foreca, HourlyAndDailyJson) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const auto hourly = dir / "nephos_foreca_hourly.json", daily = dir / "nephos_foreca_daily.json";
+  // The shapes of thesis section 2.3.
+  std::ofstream(hourly) << R"({"id": "1172451", "weather": [
+      {"s": "d000", "t": "2024-02-05T08:00Z", "temp": 16, "wd": 343, "ws": 3},
+      {"s": "d210", "t": "2024-02-05T09:00Z", "temp": 17, "wd": 340, "ws": 4},
+      {"s": "d400", "t": "2024-02-05T10:00Z", "temp": 17, "wd": 335, "ws": 5}]})";
+  std::ofstream(daily) << R"({"id": "1040652", "weather": [
+      {"d": "2023-09-05", "maxT": 33, "minT": 18, "s": "d100"},
+      {"d": "2023-09-06", "maxT": 31, "minT": 17, "s": "d300"}]})";
+  EXPECT_EQ(code_from_foreca_json(hourly, UtcTime::parse("2024-02-05T09:30Z")).text(), "d210");
+  EXPECT_EQ(code_from_foreca_json(hourly, UtcTime::parse("2024-02-05T07:00Z")).text(), "d000");  // before all: first
+  EXPECT_EQ(code_from_foreca_json(daily, UtcTime::parse("2023-09-06T12:00Z")).text(), "d300");
+  std::ofstream(hourly) << R"({"weather": [{"t": "2024-02-05T08:00Z"}]})";
+  try {
+    code_from_foreca_json(hourly, UtcTime::parse("2024-02-05T09:30Z"));
+    FAIL();
+  } catch (const FormatError& e) {
+    EXPECT_EQ(e.context().field, "weather[].s");
+  }
+  std::ofstream(hourly) << R"({"weather": [{"s": "d999", "t": "2024-02-05T08:00Z"}]})";
+  EXPECT_THROW(code_from_foreca_json(hourly, UtcTime::parse("2024-02-05T09:30Z")), FormatError);
+  std::ofstream(hourly) << "not json";
+  EXPECT_THROW(code_from_foreca_json(hourly, UtcTime::parse("2024-02-05T09:30Z")), FormatError);
+  std::filesystem::remove(hourly);
+  std::filesystem::remove(daily);
+  EXPECT_THROW(code_from_foreca_json(hourly, UtcTime{}), IoError);
+}
+
+}  // namespace nephos::realtime
