@@ -1,0 +1,67 @@
+#pragma once
+// The cloud field around an aircraft (thesis sections 3.3-3.3.5; MSFS 2004 cloud model):
+// sprite clouds built from several sprites in shading groups, placed in their altitude bands,
+// clustered or spread by the weather code's rules, and relocated ahead of the camera when they
+// fall behind so the sky never empties; flat altostratus/cirrus/fog layers. Deterministic from
+// the seed (counter-based hashing). Coordinates: local east-north-up metres, z up.
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "nephos/realtime/weather_input.hpp"
+
+namespace nephos::realtime {
+
+struct Sprite {
+  glm::vec3 offset;   ///< from the cloud centre [m]
+  float size_m;       ///< billboard edge length
+  int texture_layer;  ///< index into the sprite texture array (type x view angle)
+  int shading_group;  ///< clump the directional shading is computed for
+};
+
+struct SpriteCloud {
+  std::uint32_t id;
+  SpriteCloudType type;
+  glm::dvec3 centre;  ///< [m]
+  float radius_m;     ///< bounding radius of its sprites
+  std::vector<Sprite> sprites;
+  std::vector<glm::vec3> group_centres;  ///< per shading group, offsets from the centre
+  std::uint32_t relocations = 0;
+};
+
+struct FlatLayer {
+  SpriteCloudType type;  ///< altostratus, cirrus or low stratus
+  double altitude_m;
+  double extent_m;  ///< half-width of the square it covers around the camera
+};
+
+struct CloudFieldParams {
+  double field_radius_m = 30000;  ///< clouds live within this distance of the camera
+  double min_spacing_m = 3000;    ///< spread codes (d100/d200): minimum distance between clouds (B.3)
+  double cluster_sigma_m = 2500;  ///< clustered codes: spread of clouds around a cluster centre (B.2)
+};
+
+class CloudField {
+ public:
+  CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params = {});
+  /// Moves clouds that fell behind the camera (or out of the field) to new places ahead of it.
+  /// Returns how many were relocated.
+  int follow_camera(const glm::dvec3& camera, const glm::dvec3& forward);
+  const std::vector<SpriteCloud>& clouds() const { return clouds_; }
+  const std::vector<FlatLayer>& layers() const { return layers_; }
+  std::size_t sprite_count() const;
+  /// Level of detail: 1 (a single sprite) beyond `single_sprite_distance_m`, else all sprites.
+  static std::size_t sprites_to_draw(const SpriteCloud& c, double distance_m, double single_sprite_distance_m);
+
+ private:
+  void build_sprites(SpriteCloud& c) const;
+  glm::dvec3 place(const CloudLayerRecipe& layer, std::uint32_t id, std::uint32_t salt, const glm::dvec3& around,
+                   const glm::dvec3& forward, bool ahead) const;
+  std::uint64_t seed_;
+  CloudFieldParams p_;
+  std::vector<SpriteCloud> clouds_;
+  std::vector<CloudLayerRecipe> layer_of_cloud_;
+  std::vector<FlatLayer> layers_;
+};
+
+}  // namespace nephos::realtime

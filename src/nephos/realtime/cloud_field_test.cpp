@@ -1,0 +1,88 @@
+#include "nephos/realtime/cloud_field.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace nephos::realtime {
+namespace {
+CloudField field(const char* code, std::uint64_t seed = 4) {
+  return CloudField(recipe_from_code(parse_weather_code(code)), seed, {0, 0, 0});
+}
+double nearest_neighbour_mean(const CloudField& f) {
+  double s = 0;
+  for (const auto& a : f.clouds()) {
+    double best = 1e30;
+    for (const auto& b : f.clouds())
+      if (a.id != b.id) best = std::min(best, glm::length(glm::dvec2(a.centre - b.centre)));
+    s += best;
+  }
+  return s / static_cast<double>(f.clouds().size());
+}
+}  // namespace
+
+TEST(CloudField, CountsAndAltitudeBandsPerCode) {
+  const int expected[] = {0, 10, 30, 75, 200};
+  for (int c = 0; c <= 4; ++c) {
+    const std::string code = "d" + std::to_string(c) + "00";
+    const CloudRecipe r = recipe_from_code(parse_weather_code(code));
+    const CloudField f(r, 1, {0, 0, 0});
+    EXPECT_EQ(static_cast<int>(f.clouds().size()), expected[c]) << code;
+    for (const auto& cl : f.clouds()) {
+      const auto& layer =
+          *std::find_if(r.layers.begin(), r.layers.end(), [&](const auto& l) { return l.type == cl.type; });
+      EXPECT_GE(cl.centre.z, layer.base_m);
+      EXPECT_LE(cl.centre.z, layer.top_m);
+      EXPECT_GT(cl.sprites.size(), 4u);        // several sprites, not one quad
+      EXPECT_GE(cl.group_centres.size(), 3u);  // in shading groups
+    }
+  }
+  const CloudField ci = field("d500");
+  EXPECT_EQ(ci.clouds().size(), 0u);
+  ASSERT_EQ(ci.layers().size(), 2u);  // at most two cirrus layers
+  EXPECT_EQ(ci.layers()[0].type, SpriteCloudType::cirrus);
+}
+
+TEST(CloudField, SpreadCodesKeepTheirDistanceClusteredOnesGather) {
+  const CloudField spread = field("d200");  // 30 clouds, spread (Appendix B.3)
+  double min_d = 1e30;
+  for (const auto& a : spread.clouds())
+    for (const auto& b : spread.clouds())
+      if (a.id != b.id) min_d = std::min(min_d, glm::length(glm::dvec2(a.centre - b.centre)));
+  EXPECT_GT(min_d, 0.9 * CloudFieldParams{}.min_spacing_m);  // iterative pushing: within 10 %
+  // Clustered clouds (d300) sit much closer to their nearest neighbour than spread ones would
+  // at the same count over the same field.
+  CloudRecipe r = recipe_from_code(parse_weather_code("d300"));
+  const CloudField clustered(r, 4, {0, 0, 0});
+  r.clustered = false;
+  const CloudField uniform(r, 4, {0, 0, 0});
+  EXPECT_LT(nearest_neighbour_mean(clustered), 0.7 * nearest_neighbour_mean(uniform));
+}
+
+TEST(CloudField, CloudsBehindTheCameraAreRelocatedAhead) {
+  CloudField f = field("d300");
+  const double r = CloudFieldParams{}.field_radius_m;
+  // Fly 100 km east: everything falls behind and must reappear ahead, in view.
+  const glm::dvec3 cam{100000, 0, 1500}, fwd{1, 0, 0};
+  EXPECT_EQ(f.follow_camera(cam, fwd), 75);
+  for (const auto& c : f.clouds()) {
+    EXPECT_GT(c.centre.x - cam.x, 0.3 * r);
+    EXPECT_LT(glm::length(glm::dvec2(c.centre - cam)), 1.2 * r);
+  }
+  EXPECT_EQ(f.follow_camera(cam, fwd), 0);  // nothing left to move
+}
+
+TEST(CloudField, DeterministicFromTheSeedAndLod) {
+  const CloudField a = field("d400", 9), b = field("d400", 9), c = field("d400", 10);
+  ASSERT_EQ(a.clouds().size(), b.clouds().size());
+  for (std::size_t k = 0; k < a.clouds().size(); ++k) {
+    EXPECT_EQ(a.clouds()[k].centre, b.clouds()[k].centre);
+    EXPECT_EQ(a.clouds()[k].sprites.size(), b.clouds()[k].sprites.size());
+  }
+  EXPECT_NE(a.clouds()[0].centre, c.clouds()[0].centre);
+  const auto& cl = a.clouds()[0];
+  EXPECT_EQ(CloudField::sprites_to_draw(cl, 50000, 20000), 1u);
+  EXPECT_EQ(CloudField::sprites_to_draw(cl, 5000, 20000), cl.sprites.size());
+}
+
+}  // namespace nephos::realtime
