@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/weather/sampler.hpp"
 
 namespace nephos::realtime {
 
@@ -135,6 +136,29 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
   if (!any)
     throw ValueError("no cloud group (FEW/SCT/BKN/OVC/VV/CAVOK/SKC/CLR/NSC/NCD) in METAR '" + metar + "'",
                      {.key = "--metar"});
+  return r;
+}
+
+CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weather::WeatherGrid& w, double lat_deg,
+                                double lon_deg) {
+  using weather::CloudType;
+  CloudRecipe r;
+  r.source = fmt::format("weather at {:.2f}, {:.2f}", lat_deg, lon_deg);
+  auto frac = [&](CloudType t) {
+    const float v = weather::sample_bilinear(masks.grid, masks[t], lat_deg, lon_deg);
+    return std::isnan(v) ? 0.0 : std::clamp(static_cast<double>(v), 0.0, 1.0);
+  };
+  const double cu = frac(CloudType::low_cumulus), st = frac(CloudType::low_stratus);
+  const double as = frac(CloudType::altostratus), ci = frac(CloudType::cirrus);
+  const int n_cu = static_cast<int>(std::lround(200 * cu)), n_st = static_cast<int>(std::lround(200 * st));
+  if (n_cu > 0) r.layers.push_back({SpriteCloudType::cumulus, n_cu, cu_base, cu_top, 8 * cu});
+  if (n_st > 0) r.layers.push_back({SpriteCloudType::stratocumulus, n_st, sc_base, sc_top, 8 * st});
+  if (as > 0.25) r.layers.push_back({SpriteCloudType::altostratus, as > 0.6 ? 2 : 1, as_base, as_top, 8 * as});
+  if (ci > 0.25) r.layers.push_back({SpriteCloudType::cirrus, ci > 0.6 ? 2 : 1, ci_base, ci_top, 8 * ci});
+  r.clustered = cu + st > 0.45;  // like d300/d400: the sky is more than half covered
+  const weather::WeatherSample s = weather::WeatherSampler(w).sample(lat_deg, lon_deg, 2000);
+  r.drift_east_m_s = std::isnan(s.u_m_s) ? 0 : s.u_m_s;
+  r.drift_north_m_s = std::isnan(s.v_m_s) ? 0 : s.v_m_s;
   return r;
 }
 

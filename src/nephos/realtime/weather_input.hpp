@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "nephos/core/time.hpp"
+#include "nephos/weather/masks.hpp"
 
 namespace nephos::realtime {
 
@@ -38,6 +39,7 @@ struct CloudLayerRecipe {
 
 struct CloudRecipe {
   std::vector<CloudLayerRecipe> layers;
+  double drift_east_m_s = 0, drift_north_m_s = 0;  ///< wind that moves the clouds (GFS recipes)
   bool clustered = false;  ///< thesis Appendix B.2: d300/d400 cluster; d100/d200 are spread apart (B.3)
   std::string source;      ///< what it was decoded from
   int sprite_clouds() const;
@@ -52,6 +54,13 @@ CloudRecipe recipe_from_code(const WeatherCode& code);
 /// VVnnn (obscured sky), CAVOK/SKC/CLR/NSC/NCD (no cloud). Other groups are ignored; a report
 /// without any cloud group is an error. Rules: docs/realtime.md.
 CloudRecipe recipe_from_metar(const std::string& metar);
+
+/// From real weather at the aircraft's position: the four weather masks (cloud fractions) give
+/// the types and coverage (low cumulus -> cumulus sprites, low stratus -> stratocumulus sprites,
+/// altostratus and cirrus -> flat layers above a fraction of 0.25), sprite counts scaled like
+/// the thesis's codes (fraction 1 = 200 clouds); the 2000 m wind gives the drift.
+CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weather::WeatherGrid& weather, double lat_deg,
+                                double lon_deg);
 
 /// Foreca JSON, hourly ("t" per entry) or daily ("d" per entry): the entry at or before `time`
 /// (the first if none is). IoError / FormatError naming the file and the field otherwise.

@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/weather/reader.hpp"
+#include "nephos/weather/sampler.hpp"
 
 namespace nephos::realtime {
 
@@ -76,6 +79,33 @@ TEST(Metar, CloudGroups) {
   EXPECT_EQ(recipe_from_metar("LFPG 051350Z OVC004").layers.at(0).type, SpriteCloudType::low_stratus);
   EXPECT_EQ(recipe_from_metar("LFPG 051350Z BKN007").layers.at(0).type, SpriteCloudType::low_stratus);
   EXPECT_THROW(recipe_from_metar("EGLL 051350Z 24015KT 9999 12/08"), ValueError);
+}
+
+TEST(GfsRecipe, HandCheckedCellsOfTheEmbeddedSample) {
+  // The cells weather/masks_test.cpp checks against GFS's own cloud cover.
+  const auto w =
+      weather::open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  const auto masks = weather::compute_masks(w, weather::MaskParams{});
+  // NE Pacific stratocumulus deck (GFS low cloud 97 %): mostly stratocumulus sprites, no cirrus.
+  const CloudRecipe sc = recipe_from_weather(masks, w, 27.5, 222.5);
+  int st = 0, high = 0;
+  for (const auto& l : sc.layers) {
+    if (l.type == SpriteCloudType::stratocumulus) st = l.count;
+    if (l.type == SpriteCloudType::cirrus) ++high;
+  }
+  EXPECT_GT(st, 100);
+  EXPECT_EQ(high, 0);
+  // 15N 245E: GFS high cloud 99 %: a cirrus layer, hardly any sprites.
+  const CloudRecipe ci = recipe_from_weather(masks, w, 15, 245);
+  EXPECT_TRUE(
+      std::any_of(ci.layers.begin(), ci.layers.end(), [](const auto& l) { return l.type == SpriteCloudType::cirrus; }));
+  EXPECT_LT(ci.sprite_clouds(), 10);
+  // Central Arabia, clear in GFS: nothing.
+  EXPECT_TRUE(recipe_from_weather(masks, w, 22.5, 45).layers.empty());
+  // Drift = the 2000 m wind, the same numbers the weather sampler gives.
+  const auto s = weather::WeatherSampler(w).sample(27.5, 222.5, 2000);
+  EXPECT_EQ(sc.drift_east_m_s, s.u_m_s);
+  EXPECT_EQ(sc.drift_north_m_s, s.v_m_s);
 }
 
 TEST(Foreca, HourlyAndDailyJson) {
