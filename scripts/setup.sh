@@ -18,6 +18,7 @@ packages=(
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line
   nlohmann-json3-dev                  # weather-code JSON (Foreca)
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri   # headless OpenGL ES (EGL; Mesa llvmpipe without a GPU)
   libspdlog-dev libfmt-dev            # logging, formatting
   libgtest-dev libgmock-dev           # tests
   libbenchmark-dev                    # benchmarks

@@ -245,6 +245,69 @@ class Lbm(unittest.TestCase):
             self.assertFalse(out.exists())
 
 
+class Fly(unittest.TestCase):
+    def frames(self, d, *args):
+        r = run("fly", "--frames", "2", "--size", "160x90", *args, "--out", d)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        return [(Path(d) / f"frame_{i:04d}.png").read_bytes() for i in range(2)]
+
+    def non_sky_fraction(self, png_path):
+        import zlib
+        import struct
+        data = Path(png_path).read_bytes()
+        # Minimal PNG reader for our own 8-bit RGB output (filter bytes per row).
+        pos, idat, w, h = 8, b"", 0, 0
+        while pos < len(data):
+            n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+            body = data[pos + 8:pos + 8 + n]
+            if kind == b"IHDR":
+                w, h = struct.unpack(">II", body[:8])
+            elif kind == b"IDAT":
+                idat += body
+            pos += 12 + n
+        raw = zlib.decompress(idat)
+        stride, prev, rows = w * 3, bytearray(w * 3), []
+        for y in range(h):
+            f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+            for i in range(stride):
+                a = line[i - 3] if i >= 3 else 0
+                b = prev[i]
+                c = prev[i - 3] if i >= 3 else 0
+                if f == 1: line[i] = (line[i] + a) & 255
+                elif f == 2: line[i] = (line[i] + b) & 255
+                elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
+                elif f == 4:
+                    p = a + b - c
+                    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                    line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+            rows.append(bytes(line))
+            prev = line
+        sky = bytes([110, 160, 225])
+        other = sum(1 for row in rows for x in range(w) if row[3 * x:3 * x + 3] != sky)
+        return other / (w * h)
+
+    def test_clear_sky_has_no_cloud_and_overcast_has_many(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "d000")
+            self.assertEqual(self.non_sky_fraction(Path(d) / "frame_0001.png"), 0.0)
+            self.assertIn("frame_ms", (Path(d) / "frames.csv").read_text().splitlines()[0])
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "d400")
+            self.assertGreater(self.non_sky_fraction(Path(d) / "frame_0001.png"), 0.05)
+
+    def test_same_seed_same_frames(self):
+        with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
+            self.assertEqual(self.frames(a, "--code", "d300"), self.frames(b, "--code", "d300"))
+
+    def test_metar_and_bad_code(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--metar", "EGLL 051350Z FEW030 BKN045")
+            r = run("fly", "--code", "d900", "--out", Path(d) / "x")
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("d900", r.stderr)
+            self.assertFalse((Path(d) / "x").exists())
+
+
 class Bench(unittest.TestCase):
     def test_render_bench_smoke(self):
         r = run("bench", "render", "--quick", "--repeat", "1")

@@ -1,0 +1,52 @@
+#pragma once
+// Headless OpenGL ES 3.0 rendering of the sprite-cloud field through EGL (Mesa's llvmpipe
+// software rasteriser on machines without a GPU). One instanced draw call draws every sprite:
+// camera-facing quads from a texture array baked from nephos's own 3D fractal density, sorted
+// back to front, premultiplied-alpha blended, shaded on the CPU per sprite (MSFS 2004: five
+// height colour levels, a directional term per shading group, a time-of-day ambient factor).
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "nephos/realtime/cloud_field.hpp"
+#include "nephos/realtime/frame_logic.hpp"
+
+namespace nephos::realtime {
+
+struct Camera {
+  glm::dvec3 position, forward, up{0, 0, 1};
+  double fov_deg = 60;
+};
+
+struct FrameStats {
+  double milliseconds = 0;  ///< CPU time around the frame including glFinish
+  std::size_t sprites = 0;
+};
+
+class SpriteRenderer {
+ public:
+  /// Creates the EGL context and an off-screen framebuffer. Throws IoError if EGL/GLES 3.0 is
+  /// not available (the message says which call failed).
+  SpriteRenderer(int width, int height, std::uint64_t seed);
+  ~SpriteRenderer();
+  SpriteRenderer(const SpriteRenderer&) = delete;
+  SpriteRenderer& operator=(const SpriteRenderer&) = delete;
+
+  /// Draws the field's sprite clouds; `sort` re-sorts back to front (else the previous order).
+  FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort);
+  /// RGBA8 pixels of the last frame, rows from the top.
+  std::vector<std::uint8_t> read_pixels() const;
+  int width() const { return w_; }
+  int height() const { return h_; }
+  /// The sky colour the frame is cleared to (RGBA8), for tests.
+  static std::array<std::uint8_t, 4> sky_colour();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  int w_, h_;
+};
+
+}  // namespace nephos::realtime
