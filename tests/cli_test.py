@@ -315,6 +315,12 @@ class Bench(unittest.TestCase):
         for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view"):
             self.assertIn(anchor, r.stdout)
 
+    def test_fly_bench_smoke(self):
+        r = run("bench", "fly", "--frames", "3")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for anchor in ("p95 ms", "p99 ms", "CPU load", "200"):
+            self.assertIn(anchor, r.stdout)
+
     def test_lbm_bench_smoke(self):
         r = run("bench", "lbm", "--size", "32", "--repeat", "2")
         self.assertEqual(r.returncode, 0, r.stderr)

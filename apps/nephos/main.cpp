@@ -10,6 +10,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "fly_bench.hpp"
 #include "lbm_bench.hpp"
 #include "lbm_mpi.hpp"
 #include "nephos/clouds/cloud_model.hpp"
@@ -544,6 +545,9 @@ int main(int argc, char** argv) {
   bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")
       ->capture_default_str();
   bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
+  bench::FlyBenchOptions fbo;
+  auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
+  bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str();
   bench::LbmBenchOptions lbo;
   auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
   bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
@@ -570,6 +574,7 @@ int main(int argc, char** argv) {
     if (*lbmc) return run_lbm(lo, g);
     if (*fly) return run_fly(fo, g);
     if (*bench_lbm) return bench::run_lbm_bench(lbo, g.seed);
+    if (*bench_fly) return bench::run_fly_bench(fbo, g.seed);
   } catch (const Error& e) {
     std::cerr << "nephos: error: " << e.what() << "\n";
     return exit_input_error;

@@ -1,0 +1,16 @@
+#pragma once
+// `nephos bench fly`: the thesis's experiment matrix (tests A-E: 0, 10, 30, 75, 200 clouds) x
+// clustered / spread x sort-optimised / not, N frames each at 1280x720 on the headless renderer,
+// frame times measured on the CPU around glFinish.
+#include <cstdint>
+
+namespace nephos::bench {
+
+struct FlyBenchOptions {
+  int frames = 60;
+  int width = 1280, height = 720;
+};
+
+int run_fly_bench(const FlyBenchOptions& options, std::uint64_t seed);
+
+}  // namespace nephos::bench
