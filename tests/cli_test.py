@@ -251,7 +251,7 @@ class Fly(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         return [(Path(d) / f"frame_{i:04d}.png").read_bytes() for i in range(2)]
 
-    def non_sky_fraction(self, png_path):
+    def non_sky_fraction(self, png_path, half=None):
         import zlib
         import struct
         data = Path(png_path).read_bytes()
@@ -283,8 +283,12 @@ class Fly(unittest.TestCase):
             rows.append(bytes(line))
             prev = line
         sky = bytes([110, 160, 225])
+        if half == "top":
+            rows = rows[:h // 2]
+        elif half == "bottom":
+            rows = rows[h // 2:]
         other = sum(1 for row in rows for x in range(w) if row[3 * x:3 * x + 3] != sky)
-        return other / (w * h)
+        return other / (w * len(rows))
 
     def test_clear_sky_has_no_cloud_and_overcast_has_many(self):
         with tempfile.TemporaryDirectory() as d:
@@ -294,6 +298,17 @@ class Fly(unittest.TestCase):
         with tempfile.TemporaryDirectory() as d:
             self.frames(d, "--code", "d400")
             self.assertGreater(self.non_sky_fraction(Path(d) / "frame_0001.png"), 0.05)
+
+    def test_flat_layers_above_and_below(self):
+        # Thin high clouds (cirrus sheets) appear above the horizon only, fog below only.
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "d500")
+            self.assertGreater(self.non_sky_fraction(Path(d) / "frame_0001.png", "top"), 0.2)
+            self.assertEqual(self.non_sky_fraction(Path(d) / "frame_0001.png", "bottom"), 0.0)
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "n600", "--time", "2024-06-21T12:00:00Z")
+            self.assertEqual(self.non_sky_fraction(Path(d) / "frame_0001.png", "top"), 0.0)
+            self.assertGreater(self.non_sky_fraction(Path(d) / "frame_0001.png", "bottom"), 0.2)
 
     def test_same_seed_same_frames(self):
         with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:

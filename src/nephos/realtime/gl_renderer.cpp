@@ -17,13 +17,15 @@ namespace nephos::realtime {
 namespace {
 
 constexpr int tex_size = 64, layers_per_type = 5;
+constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
+constexpr int texture_layers = sheet_layer + 1;
 
 // Sprite textures baked from a 3D density: an ellipsoidal puff modulated by a tileable Perlin
 // fractal, seen from five elevations (-60..60 deg); opacity 1 - exp(-kappa * column density),
 // premultiplied white (the shading colours it per vertex).
 std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
   const noise::Texture3D tex = noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, seed, 32);
-  std::vector<std::uint8_t> out(static_cast<std::size_t>(2 * layers_per_type) * tex_size * tex_size * 4);
+  std::vector<std::uint8_t> out(static_cast<std::size_t>(texture_layers) * tex_size * tex_size * 4);
   for (int type = 0; type < 2; ++type)
     for (int l = 0; l < layers_per_type; ++l) {
       const double el = (-60.0 + 30.0 * l) * M_PI / 180;
@@ -51,6 +53,17 @@ std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
           out[q + 3] = a;
         }
     }
+  // A tileable sheet for the flat layers: a horizontal slice of the (periodic) fractal, opacity
+  // rising smoothly above its median.
+  for (int y = 0; y < tex_size; ++y)
+    for (int x = 0; x < tex_size; ++x) {
+      const double n = tex.sample(static_cast<float>(x) / tex_size, static_cast<float>(y) / tex_size, 0.5f);
+      const double alpha = std::clamp((n - 0.42) / 0.2, 0.0, 1.0);
+      const std::size_t q = ((static_cast<std::size_t>(sheet_layer) * tex_size + y) * tex_size + x) * 4;
+      const auto a = static_cast<std::uint8_t>(std::lround(255 * alpha));
+      out[q] = out[q + 1] = out[q + 2] = a;
+      out[q + 3] = a;
+    }
   return out;
 }
 
@@ -59,16 +72,21 @@ const char* vertex_body = R"(
 layout(location = 0) in vec2 corner;       // -1..1
 layout(location = 1) in vec4 pos_size;     // position relative to the camera [m], size [m]
 layout(location = 2) in vec4 colour_alpha; // shaded colour, alpha (fade)
-layout(location = 3) in float layer;
+layout(location = 3) in vec2 layer_tiles;  // texture layer; 0 = camera-facing sprite, else a
+                                           // horizontal sheet repeating the texture this often
 uniform mat4 view_proj;
 uniform vec3 cam_right;
 uniform vec3 cam_up;
 out vec3 v_uvl;
 out vec4 v_colour;
 void main() {
-  vec3 p = pos_size.xyz + 0.5 * pos_size.w * (corner.x * cam_right + corner.y * cam_up);
+  bool sheet = layer_tiles.y > 0.0;
+  vec3 ax = sheet ? vec3(1.0, 0.0, 0.0) : cam_right;
+  vec3 ay = sheet ? vec3(0.0, 1.0, 0.0) : cam_up;
+  vec3 p = pos_size.xyz + 0.5 * pos_size.w * (corner.x * ax + corner.y * ay);
   gl_Position = view_proj * vec4(p, 1.0);
-  v_uvl = vec3(corner * vec2(0.5, -0.5) + 0.5, layer);
+  vec2 uv = corner * vec2(0.5, -0.5) + 0.5;
+  v_uvl = vec3(sheet ? uv * layer_tiles.y : uv, layer_tiles.x);
   v_colour = colour_alpha;
 }
 )";
@@ -150,12 +168,13 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   const auto pixels = bake_sprites(seed);
   glGenTextures(1, &m.texture);
   glBindTexture(GL_TEXTURE_2D_ARRAY, m.texture);
-  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, tex_size, tex_size, 2 * layers_per_type, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, tex_size, tex_size, texture_layers, 0, GL_RGBA, GL_UNSIGNED_BYTE,
                pixels.data());
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  // Repeat, for the tiled sheets; sprites stay in [0, 1] and fade to zero at their edges.
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
 
   glGenVertexArrays(1, &m.vao);
   glBindVertexArray(m.vao);
@@ -167,7 +186,7 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
   glGenBuffers(1, &m.instances);
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
-  constexpr GLsizei stride = 9 * sizeof(float);
+  constexpr GLsizei stride = 10 * sizeof(float);
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, nullptr);
   glVertexAttribDivisor(1, 1);
@@ -175,7 +194,7 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(4 * sizeof(float)));
   glVertexAttribDivisor(2, 1);
   glEnableVertexAttribArray(3);
-  glVertexAttribPointer(3, 1, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(8 * sizeof(float)));
+  glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(8 * sizeof(float)));
   glVertexAttribDivisor(3, 1);
 }
 
@@ -210,6 +229,30 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       {0.45, 0.48, 0.55}, {0.58, 0.61, 0.67}, {0.72, 0.74, 0.78}, {0.86, 0.87, 0.89}, {0.97, 0.97, 0.98}};
   const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
   m.buffer.clear();
+  // Flat layers (altostratus, cirrus, fog) first, farthest altitude first: wide horizontal
+  // sheets centred under/over the camera, drawn behind the sprite clouds.
+  std::vector<const FlatLayer*> flats;
+  for (const auto& l : field.layers()) flats.push_back(&l);
+  std::sort(flats.begin(), flats.end(), [&](const FlatLayer* a, const FlatLayer* b) {
+    return std::abs(a->altitude_m - cam.position.z) > std::abs(b->altitude_m - cam.position.z);
+  });
+  for (const FlatLayer* l : flats) {
+    const bool cirrus = l->type == SpriteCloudType::cirrus, fog = l->type == SpriteCloudType::low_stratus;
+    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = cirrus ? 0.45 : fog ? 0.9 : 0.7;
+    const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
+    const float size = static_cast<float>(2 * l->extent_m);
+    const float v[10] = {0,
+                         0,
+                         static_cast<float>(l->altitude_m - cam.position.z),
+                         size,
+                         static_cast<float>(c.r),
+                         static_cast<float>(c.g),
+                         static_cast<float>(c.b),
+                         static_cast<float>(alpha),
+                         static_cast<float>(sheet_layer),
+                         size / (cirrus ? 6000.0f : 3000.0f)};
+    m.buffer.insert(m.buffer.end(), v, v + 10);
+  }
   for (std::size_t k : m.order) {
     const Item& it = items[k];
     const double h = std::clamp((it.sprite->offset.z + 300.0) / 1500.0, 0.0, 0.999) * 4;
@@ -220,17 +263,18 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     const double dir = glm::length(g) > 1e-6 ? std::max(0.0, glm::dot(glm::normalize(g), sun.direction)) : 0.0;
     const glm::dvec3 colour = glm::min(glm::dvec3(1.0), ambient * level + 0.35 * dir * sun.colour);
     const glm::dvec3 rel = pos[k] - cam.position;
-    const float v[9] = {static_cast<float>(rel.x),
-                        static_cast<float>(rel.y),
-                        static_cast<float>(rel.z),
-                        it.sprite->size_m,
-                        static_cast<float>(colour.r),
-                        static_cast<float>(colour.g),
-                        static_cast<float>(colour.b),
-                        1.0f,
-                        static_cast<float>((it.cloud->type == SpriteCloudType::cumulus ? 0 : layers_per_type) +
-                                           it.sprite->texture_layer % layers_per_type)};
-    m.buffer.insert(m.buffer.end(), v, v + 9);
+    const float v[10] = {static_cast<float>(rel.x),
+                         static_cast<float>(rel.y),
+                         static_cast<float>(rel.z),
+                         it.sprite->size_m,
+                         static_cast<float>(colour.r),
+                         static_cast<float>(colour.g),
+                         static_cast<float>(colour.b),
+                         1.0f,
+                         static_cast<float>((it.cloud->type == SpriteCloudType::cumulus ? 0 : layers_per_type) +
+                                            it.sprite->texture_layer % layers_per_type),
+                         0.0f};  // camera-facing sprite (no tiling)
+    m.buffer.insert(m.buffer.end(), v, v + 10);
   }
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
   const glm::dvec3 f = glm::normalize(cam.forward), r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
@@ -268,7 +312,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m.buffer.size() * sizeof(float)), m.buffer.data(),
                GL_STREAM_DRAW);
-  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(items.size()));  // one draw call
+  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(items.size() + flats.size()));  // one draw call
   glFinish();
   FrameStats s;
   s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
