@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "nephos/core/atomic_file.hpp"
+#include "nephos/io/png.hpp"
 #include "nephos/realtime/cloud_field.hpp"
 #include "nephos/realtime/frame_logic.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
@@ -38,6 +40,7 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
   std::cout << fmt::format("{:<5} {:>6} {:>10} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9}\n", "test", "clouds", "clustered",
                            "sort-opt", "mean ms", "p50 ms", "p95 ms", "p99 ms", "CPU load");
   const char* codes[] = {"d000", "d100", "d200", "d300", "d400"};
+  std::vector<double> p95s;
   for (int t = 0; t < 5; ++t)
     for (bool clustered : {false, true})
       for (bool sort_opt : {false, true}) {
@@ -60,11 +63,36 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
         double mean = 0;
         for (double v : ms) mean += v;
         mean /= static_cast<double>(ms.size());
+        p95s.push_back(percentile(ms, 0.95));
         std::cout << fmt::format("{:<5} {:>6} {:>10} {:>9} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.0f}%\n",
                                  std::string(1, static_cast<char>('A' + t)), field.clouds().size(),
                                  clustered ? "yes" : "no", sort_opt ? "yes" : "no", mean, percentile(ms, 0.5),
                                  percentile(ms, 0.95), percentile(ms, 0.99), 100 * load);
       }
+  if (!o.plot.empty()) {
+    // Bar plot: one bar per case (A-E x clustered x sort-opt), height = p95 frame time on a
+    // 0-50 ms scale; the red line is the 33 ms (30 fps) goal.
+    constexpr int w = 420, h = 240, bar = 16, gap = 5, left = 10;
+    std::vector<std::uint8_t> px(static_cast<std::size_t>(w) * h * 3, 255);
+    auto set = [&](int x, int y, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+      if (x < 0 || y < 0 || x >= w || y >= h) return;
+      const std::size_t q = (static_cast<std::size_t>(y) * w + x) * 3;
+      px[q] = r, px[q + 1] = g, px[q + 2] = b;
+    };
+    const auto y_of = [&](double ms) {
+      return h - 10 - static_cast<int>(std::lround(std::min(ms, 50.0) / 50.0 * (h - 20)));
+    };
+    for (std::size_t k = 0; k < p95s.size(); ++k) {
+      const int x0 = left + static_cast<int>(k) * (bar + gap), top = y_of(p95s[k]);
+      const std::uint8_t shade = static_cast<std::uint8_t>(60 + 35 * (k % 4));
+      for (int x = x0; x < x0 + bar; ++x)
+        for (int y = top; y < h - 10; ++y) set(x, y, shade, shade, 200);
+    }
+    for (int x = 0; x < w; ++x) set(x, y_of(33.0), 220, 30, 30), set(x, h - 10, 0, 0, 0);
+    ensure_directory(std::filesystem::path(o.plot).parent_path());
+    io::write_png(o.plot, w, h, 3, px);
+    std::cout << "plot (p95 per case, red line = 33 ms): " << o.plot << "\n";
+  }
   return 0;
 }
 

@@ -3,12 +3,14 @@
 // clustered / spread x sort-optimised / not, N frames each at 1280x720 on the headless renderer,
 // frame times measured on the CPU around glFinish.
 #include <cstdint>
+#include <string>
 
 namespace nephos::bench {
 
 struct FlyBenchOptions {
   int frames = 60;
   int width = 1280, height = 720;
+  std::string plot = "out/bench_fly.png";  ///< bar plot of p95 frame time per case ("" = none)
 };
 
 int run_fly_bench(const FlyBenchOptions& options, std::uint64_t seed);

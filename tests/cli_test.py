@@ -331,8 +331,10 @@ class Bench(unittest.TestCase):
             self.assertIn(anchor, r.stdout)
 
     def test_fly_bench_smoke(self):
-        r = run("bench", "fly", "--frames", "3")
-        self.assertEqual(r.returncode, 0, r.stderr)
+        with tempfile.TemporaryDirectory() as d:
+            r = run("bench", "fly", "--frames", "3", "--plot", Path(d) / "plot.png")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertEqual((Path(d) / "plot.png").read_bytes()[:4], b"\x89PNG")
         for anchor in ("p95 ms", "p99 ms", "CPU load", "200"):
             self.assertIn(anchor, r.stdout)
 

@@ -548,6 +548,7 @@ int main(int argc, char** argv) {
   bench::FlyBenchOptions fbo;
   auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
   bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str();
+  bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
   bench::LbmBenchOptions lbo;
   auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
   bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
