@@ -19,6 +19,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/log.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/core/parse.hpp"
 #include "nephos/core/progress.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
@@ -241,15 +242,10 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   const auto t_start = std::chrono::steady_clock::now();
   if (o.iterations < 0) throw ValueError("must be >= 0", {.key = "--iterations"});
   const auto image_size = parse_size(o.size);
-  const auto sun = split(o.sun, "--sun");
-  if (sun.size() != 2) throw ValueError("expected AZIMUTH,ELEVATION in degrees", {.key = "--sun"});
+  const auto sun = parse_numbers(o.sun, 2, "--sun", "AZIMUTH,ELEVATION in degrees");
   lbm::LightingParams lp;
-  try {
-    lp.sun_azimuth_deg = std::stod(sun[0]);
-    lp.sun_elevation_deg = std::stod(sun[1]);
-  } catch (const std::exception&) {
-    throw ValueError("expected AZIMUTH,ELEVATION in degrees, got '" + o.sun + "'", {.key = "--sun"});
-  }
+  lp.sun_azimuth_deg = sun[0];
+  lp.sun_elevation_deg = sun[1];
 
   lbm::WaterModelParams params;
   if (!o.config.empty()) {
@@ -393,15 +389,8 @@ struct FlyOptions {
 
 int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
-  const auto pos = split(o.position, "--position");
-  if (pos.size() != 2) throw ValueError("expected LAT,LON in degrees", {.key = "--position"});
-  double lat = 0, lon = 0;
-  try {
-    lat = std::stod(pos[0]);
-    lon = std::stod(pos[1]);
-  } catch (const std::exception&) {
-    throw ValueError("expected LAT,LON in degrees, got '" + o.position + "'", {.key = "--position"});
-  }
+  const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
+  const double lat = pos[0], lon = pos[1];
   const UtcTime time = UtcTime::parse(o.time);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   const int sources = !o.code.empty() + !o.metar.empty() + !o.foreca.empty() + !o.weather.empty();

@@ -2,10 +2,10 @@
 
 #include <fmt/format.h>
 #include <filesystem>
-#include <sstream>
 #include <vector>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/parse.hpp"
 
 namespace nephos::render {
 namespace {
@@ -28,23 +28,6 @@ Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth:
   return s;
 }
 
-std::vector<double> numbers(const std::string& list, std::size_t count, const std::string& spec) {
-  std::vector<double> v;
-  std::stringstream ss(list);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      throw ValueError(fmt::format("'{}' in sensor '{}' is not a number", item, spec), {.key = "--sensor"});
-    }
-  }
-  if (v.size() != count)
-    throw ValueError(fmt::format("sensor '{}' needs {} comma-separated numbers", spec, count), {.key = "--sensor"});
-  return v;
-}
 }  // namespace
 
 Sensor Sensor::geostationary(double lon_deg, int width, int height) {
@@ -89,9 +72,10 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
 }
 
 Sensor parse_sensor(const std::string& spec, int width, int height) {
-  if (spec.rfind("geo:", 0) == 0) return Sensor::geostationary(numbers(spec.substr(4), 1, spec)[0], width, height);
+  if (spec.rfind("geo:", 0) == 0)
+    return Sensor::geostationary(parse_numbers(spec.substr(4), 1, "--sensor", "geo:LON")[0], width, height);
   if (spec.rfind("leo:", 0) == 0) {
-    const auto v = numbers(spec.substr(4), 4, spec);
+    const auto v = parse_numbers(spec.substr(4), 4, "--sensor", "leo:LAT,LON,ALT_KM,FOV_DEG");
     if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "--sensor"});
     return Sensor::nadir(v[0], v[1], v[2] * 1e3, v[3], width, height);
   }
