@@ -121,8 +121,11 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
   if (maps_.size() != 4) throw ValueError("a cloud shell needs 4 displacement maps (mask + 3 fractals)");
   r_bottom_ = earth::radius_m + p_.shell_bottom_m;
   r_top_ = earth::radius_m + p_.shell_top_m;
-  fractal_max_ = 0;
-  for (const auto& f : p_.fractals) fractal_max_ += std::max(0.0, f.weight);
+  fractal_max_ = fractal_min_ = 0;
+  for (const auto& f : p_.fractals) {
+    fractal_max_ += std::max(0.0, f.weight);
+    fractal_min_ += std::min(0.0, f.weight);
+  }
   bias_ = p_.bias;
   mask_weight_ = p_.mask_weight;
   barrier_z0_ = p_.shell_bottom_m - 1000;
@@ -212,8 +215,7 @@ double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
   if (base + fractal_max_ < thr) return base + fractal_max_;  // cannot reach the level set
   double v = base;
   double remaining_max = fractal_max_;  // largest sum the terms not yet added can contribute
-  double remaining_min = 0;             // smallest (negative weights)
-  for (const auto& f : p_.fractals) remaining_min += std::min(0.0, f.weight);
+  double remaining_min = fractal_min_;  // smallest (negative weights)
   earth::Vec3 di = d;
   double last_hours = -1;
   for (int i : order_) {

@@ -134,7 +134,7 @@ class CloudShell {
   void build_skip_map();
   double barrier(double alt) const;
   double r_bottom_, r_top_;
-  double bias_, mask_weight_, fractal_max_;
+  double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms
   std::array<int, 3> order_{0, 2, 1};  ///< evaluation order of the fractal terms
   CubeMap<float> mask_max_;
   double skip_radius_rad_ = 0;
