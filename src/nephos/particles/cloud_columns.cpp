@@ -1,0 +1,240 @@
+#include "nephos/particles/cloud_columns.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/parse.hpp"
+#include "nephos/earth/earth.hpp"
+
+namespace nephos::particles {
+
+namespace {
+constexpr float nan_f = std::numeric_limits<float>::quiet_NaN();
+constexpr double deg = M_PI / 180.0;
+}  // namespace
+
+float CloudColumns::max_tau() const {
+  float m = 0;
+  for (float t : tau) m = std::max(m, t);
+  return m;
+}
+
+float CloudColumns::max_top_m() const {
+  float m = 0;
+  for (float t : top_m)
+    if (!std::isnan(t)) m = std::max(m, t);
+  return m;
+}
+
+float CloudColumns::sigma_per_m(std::size_t c) const {
+  const float depth = top_m[c] - base_m[c];
+  return tau[c] > 0 && depth > 0 ? tau[c] / depth : 0.0f;
+}
+
+glm::dvec3 WindVolume::sample(const PlanarGrid& g, double x_m, double y_m, double z) const {
+  const double fc = std::clamp((x_m - g.x0_m) / g.dx_m, 0.0, static_cast<double>(g.cols - 1));
+  const double fr = std::clamp((y_m - g.y0_m) / g.dy_m, 0.0, static_cast<double>(g.rows - 1));
+  const int i0 = std::min(static_cast<int>(fc), std::max(g.cols - 2, 0));
+  const int j0 = std::min(static_cast<int>(fr), std::max(g.rows - 2, 0));
+  const double tx = fc - i0, ty = fr - j0;
+  const std::size_t plane = g.size();
+  glm::dvec3 out{0.0};
+  for (int dj = 0; dj < 2; ++dj)
+    for (int di = 0; di < 2; ++di) {
+      const int i = std::min(i0 + di, g.cols - 1), j = std::min(j0 + dj, g.rows - 1);
+      const double wgt = (di ? tx : 1 - tx) * (dj ? ty : 1 - ty);
+      if (wgt == 0) continue;
+      const std::size_t c = static_cast<std::size_t>(j) * g.cols + static_cast<std::size_t>(i);
+      // Linear in height between the bracketing levels, clamped outside.
+      int k = 0;
+      while (k + 1 < levels && z_m[(k + 1) * plane + c] < z) ++k;
+      const std::size_t a = k * plane + c;
+      glm::dvec3 wind{u[a], v[a], w[a]};
+      if (k + 1 < levels && z > z_m[a]) {
+        const std::size_t b = a + plane;
+        const double s = std::clamp((z - z_m[a]) / (z_m[b] - z_m[a]), 0.0, 1.0);
+        wind += s * (glm::dvec3{u[b], v[b], w[b]} - wind);
+      }
+      out += wgt * wind;
+    }
+  return out;
+}
+
+void ParticleWeather::validate() const {
+  if (grid.cols < 2 || grid.rows < 2)
+    throw ValueError("the particle grid needs at least 2 x 2 columns, got " + std::to_string(grid.cols) + " x " +
+                     std::to_string(grid.rows));
+  if (frames.empty()) throw ValueError("no weather frames");
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const auto& fr = frames[f];
+    if (fr.columns.tau.size() != grid.size() || fr.columns.top_m.size() != grid.size() ||
+        fr.columns.base_m.size() != grid.size())
+      throw ValueError("frame " + std::to_string(f) + " has columns unlike the grid");
+    const std::size_t n3 = static_cast<std::size_t>(fr.wind.levels) * grid.size();
+    if (fr.wind.u.size() != n3 || fr.wind.v.size() != n3 || fr.wind.w.size() != n3 || fr.wind.z_m.size() != n3)
+      throw ValueError("frame " + std::to_string(f) + " has a wind volume unlike the grid");
+    if (f > 0 && !(fr.time_s > frames[f - 1].time_s))
+      throw ValueError("frames must be strictly ascending in time (frame " + std::to_string(f) + ")");
+  }
+}
+
+LatLonRegion LatLonRegion::parse(const std::string& text, const std::string& key) {
+  const auto v = parse_numbers(text, 4, key, "LAT0,LON0,LAT1,LON1 in degrees (south, west, north, east)");
+  LatLonRegion r{v[0], v[1], v[2], v[3]};
+  if (!(r.lat0_deg >= -90 && r.lat1_deg <= 90 && r.lat0_deg < r.lat1_deg))
+    throw ValueError("latitudes must satisfy -90 <= LAT0 < LAT1 <= 90, got '" + text + "'", {.key = key});
+  return r;
+}
+
+double layer_optical_thickness(double air_density_kg_m3, double mixing_ratio_kg_kg, double thickness_m,
+                               double condensate_density_kg_m3, double effective_radius_m) {
+  // lambda = 2 pi dh Int r^2 n(r) dr; with the water content W = (4/3) pi rho_c Int r^3 n dr and
+  // r_e = Int r^3 n / Int r^2 n this is 3 W dh / (2 rho_c r_e).
+  const double water_content = air_density_kg_m3 * std::max(mixing_ratio_kg_kg, 0.0);  // [kg/m^3]
+  return 3.0 * water_content * thickness_m / (2.0 * condensate_density_kg_m3 * effective_radius_m);
+}
+
+ColumnCloud column_cloud(const LayerColumn& c, const ColumnParams& p) {
+  ColumnCloud out{nan_f, nan_f, 0.0f};
+  double tau = 0;
+  for (std::size_t k = 0; k < c.z_lower_m.size(); ++k) {
+    const double q = c.q_liquid[k] + c.q_ice[k];
+    if (!(q > p.cloud_threshold_kg_kg)) continue;
+    const double dz = c.z_upper_m[k] - c.z_lower_m[k];
+    tau += layer_optical_thickness(c.air_density[k], c.q_liquid[k], dz, rho_liquid_water,
+                                   p.effective_radius_liquid_um * 1e-6) +
+           layer_optical_thickness(c.air_density[k], c.q_ice[k], dz, rho_ice, p.effective_radius_ice_um * 1e-6);
+    if (std::isnan(out.base_m)) out.base_m = static_cast<float>(c.z_lower_m[k]);
+    out.top_m = static_cast<float>(c.z_upper_m[k]);
+  }
+  out.tau = static_cast<float>(tau);
+  return out;
+}
+
+ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grids, const LatLonRegion& region,
+                                   const ColumnParams& params) {
+  using weather::Field;
+  if (grids.empty()) throw ValueError("no weather given");
+  const weather::LatLonGrid& g = grids.front().grid();
+  for (const auto& w : grids)
+    if (!(w.grid() == g))
+      throw FormatError("all weather files must share one grid (" + g.describe() + " vs " + w.grid().describe() + ")",
+                        {.file = w.metadata().source});
+
+  // Region -> rows (south first) and columns (eastwards from the region's west edge).
+  std::vector<int> rows, cols;
+  for (int j = 0; j < g.nlat; ++j)
+    if (g.lat(j) >= region.lat0_deg - 1e-9 && g.lat(j) <= region.lat1_deg + 1e-9) rows.push_back(j);
+  double span = std::fmod(region.lon1_deg - region.lon0_deg + 720.0, 360.0);
+  if (span == 0 && region.lon1_deg != region.lon0_deg) span = 360;
+  double first_lon = 0;
+  for (int n = 0; n < g.nlon; ++n) {
+    const double off = std::fmod(g.lon(n) - region.lon0_deg + 720.0, 360.0);
+    if (off <= span + 1e-9) cols.push_back(n);
+  }
+  // Order columns eastwards from the west edge (a wrapping region starts mid-grid).
+  std::sort(cols.begin(), cols.end(), [&](int a, int b) {
+    return std::fmod(g.lon(a) - region.lon0_deg + 720.0, 360.0) < std::fmod(g.lon(b) - region.lon0_deg + 720.0, 360.0);
+  });
+  if (rows.size() < 2 || cols.size() < 2)
+    throw ValueError("the region holds " + std::to_string(cols.size()) + " x " + std::to_string(rows.size()) +
+                         " grid columns of " + g.describe() + "; at least 2 x 2 are needed",
+                     {.key = "--region"});
+  if (!cols.empty()) first_lon = region.lon0_deg + std::fmod(g.lon(cols.front()) - region.lon0_deg + 720.0, 360.0);
+
+  ParticleWeather pw;
+  PlanarGrid& pg = pw.grid;
+  pg.cols = static_cast<int>(cols.size());
+  pg.rows = static_cast<int>(rows.size());
+  pg.centre_lat_deg = 0.5 * (g.lat(rows.front()) + g.lat(rows.back()));
+  const double centre_lon = first_lon + 0.5 * (pg.cols - 1) * g.dlon_deg;
+  pg.centre_lon_deg = std::fmod(centre_lon + 540.0, 360.0) - 180.0;
+  const double r = earth::radius_m * std::cos(pg.centre_lat_deg * deg);
+  pg.dx_m = r * g.dlon_deg * deg;
+  pg.dy_m = earth::radius_m * g.dlat_deg * deg;
+  pg.x0_m = -0.5 * (pg.cols - 1) * pg.dx_m;
+  pg.y0_m = (g.lat(rows.front()) - pg.centre_lat_deg) * deg * earth::radius_m;
+
+  std::vector<weather::WeatherGrid> sorted = grids;
+  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
+    return a.metadata().valid_time < b.metadata().valid_time;
+  });
+  const UtcTime t0 = sorted.front().metadata().valid_time;
+  pw.source = sorted.front().metadata().source;
+  for (std::size_t f = 1; f < sorted.size(); ++f) pw.source += ", " + sorted[f].metadata().source;
+
+  for (const auto& w : sorted) {
+    for (Field f : {Field::geopotential_height, Field::temperature, Field::cloud_water, Field::u_wind, Field::v_wind})
+      if (!w.has(f))
+        throw FormatError("the particle system needs this field, which the file lacks",
+                          {.file = w.metadata().source, .field = weather::info(f).grib_short_name});
+    std::vector<int> levels;
+    for (int k = 0; k < w.level_count(); ++k)
+      if (w.has(Field::geopotential_height, k) && w.has(Field::temperature, k) && w.has(Field::cloud_water, k) &&
+          w.has(Field::u_wind, k) && w.has(Field::v_wind, k))
+        levels.push_back(k);
+    if (levels.size() < 2)
+      throw FormatError("fewer than 2 pressure levels hold gh, t, clwmr, u and v together",
+                        {.file = w.metadata().source, .field = "clwmr"});
+    const bool has_omega = std::all_of(levels.begin(), levels.end(), [&](int k) { return w.has(Field::omega, k); });
+    if (!has_omega)
+      spdlog::warn("{}: no vertical velocity (w) on every cloud level; particles move horizontally only",
+                   w.metadata().source);
+
+    WeatherFrame fr;
+    fr.valid_time = w.metadata().valid_time;
+    fr.time_s = static_cast<double>(fr.valid_time.unix_s - t0.unix_s);
+    const std::size_t plane = pg.size(), nl = levels.size();
+    fr.columns.base_m.assign(plane, nan_f);
+    fr.columns.top_m.assign(plane, nan_f);
+    fr.columns.tau.assign(plane, 0.0f);
+    fr.wind.levels = static_cast<int>(nl);
+    fr.wind.z_m.resize(nl * plane);
+    fr.wind.u.resize(nl * plane);
+    fr.wind.v.resize(nl * plane);
+    fr.wind.w.resize(nl * plane);
+    const auto& p_pa = w.pressure_levels_pa();
+    LayerColumn col;
+    for (auto* v : {&col.z_lower_m, &col.z_upper_m, &col.air_density, &col.q_liquid, &col.q_ice}) v->resize(nl);
+    for (int rj = 0; rj < pg.rows; ++rj)
+      for (int ci = 0; ci < pg.cols; ++ci) {
+        const int j = rows[static_cast<std::size_t>(rj)], i = cols[static_cast<std::size_t>(ci)];
+        const std::size_t c = static_cast<std::size_t>(rj) * pg.cols + static_cast<std::size_t>(ci);
+        std::vector<double> z(nl);
+        for (std::size_t m = 0; m < nl; ++m) z[m] = w.value(Field::geopotential_height, levels[m], j, i);
+        for (std::size_t m = 0; m < nl; ++m) {
+          const int k = levels[m];
+          // Layer interfaces half-way between level heights; the outer layers are symmetric.
+          col.z_lower_m[m] = m == 0 ? z[0] - 0.5 * (z[1] - z[0]) : 0.5 * (z[m - 1] + z[m]);
+          col.z_upper_m[m] = m + 1 == nl ? z[m] + 0.5 * (z[m] - z[m - 1]) : 0.5 * (z[m] + z[m + 1]);
+          const double t = w.value(Field::temperature, k, j, i);
+          const double rho = p_pa[static_cast<std::size_t>(k)] / (r_dry_air * t);
+          const double q = std::max(0.0, static_cast<double>(w.value(Field::cloud_water, k, j, i)));
+          const double ice = std::clamp((params.ice_ramp_warm_k - t) / (params.ice_ramp_warm_k - params.ice_ramp_cold_k),
+                                        0.0, 1.0);
+          col.air_density[m] = rho;
+          col.q_liquid[m] = q * (1 - ice);
+          col.q_ice[m] = q * ice;
+          const std::size_t a = m * plane + c;
+          fr.wind.z_m[a] = static_cast<float>(z[m]);
+          fr.wind.u[a] = w.value(Field::u_wind, k, j, i);
+          fr.wind.v[a] = w.value(Field::v_wind, k, j, i);
+          // omega [Pa/s] -> w [m/s] by hydrostatic balance: w = -omega / (rho g).
+          fr.wind.w[a] = has_omega ? static_cast<float>(-w.value(Field::omega, k, j, i) / (rho * g0)) : 0.0f;
+        }
+        const ColumnCloud cc = column_cloud(col, params);
+        fr.columns.base_m[c] = cc.base_m;
+        fr.columns.top_m[c] = cc.top_m;
+        fr.columns.tau[c] = cc.tau;
+      }
+    pw.frames.push_back(std::move(fr));
+  }
+  pw.validate();
+  return pw;
+}
+
+}  // namespace nephos::particles
