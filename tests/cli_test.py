@@ -323,6 +323,151 @@ class Fly(unittest.TestCase):
             self.assertFalse((Path(d) / "x").exists())
 
 
+
+def write_wrfout(path, nt=3, omit=None):
+    """A small wrfout following WRF's names, dimensions, staggering and units (ARW User's Guide
+    ch. 5): 10 x 8 columns of 4 km, 6 layers of 1 km, a liquid cloud blob in layers 1-2 and ice
+    above it, westerly wind strengthening by 1 m/s per hour."""
+    import numpy as np
+    from netCDF4 import Dataset
+    nx, ny, nz, g = 10, 8, 6, 9.81
+    with Dataset(path, "w", format="NETCDF3_64BIT_OFFSET") as d:
+        d.TITLE = " OUTPUT FROM WRF V4.2 MODEL (nephos test)"
+        d.DX = np.float32(4000.0)
+        d.DY = np.float32(4000.0)
+        for name, n in (("Time", None), ("DateStrLen", 19), ("west_east", nx), ("south_north", ny),
+                        ("bottom_top", nz), ("west_east_stag", nx + 1), ("south_north_stag", ny + 1),
+                        ("bottom_top_stag", nz + 1)):
+            d.createDimension(name, n)
+        t = d.createVariable("Times", "S1", ("Time", "DateStrLen"))
+        mass = ("Time", "bottom_top", "south_north", "west_east")
+        spec = {"XLAT": (("Time", "south_north", "west_east"), "degree_north"),
+                "XLONG": (("Time", "south_north", "west_east"), "degree_east"),
+                "PH": (("Time", "bottom_top_stag", "south_north", "west_east"), "m2 s-2"),
+                "PHB": (("Time", "bottom_top_stag", "south_north", "west_east"), "m2 s-2"),
+                "P": (mass, "Pa"), "PB": (mass, "Pa"), "T": (mass, "K"),
+                "QCLOUD": (mass, "kg kg-1"), "QICE": (mass, "kg kg-1"),
+                "U": (("Time", "bottom_top", "south_north", "west_east_stag"), "m s-1"),
+                "V": (("Time", "bottom_top", "south_north_stag", "west_east"), "m s-1"),
+                "W": (("Time", "bottom_top_stag", "south_north", "west_east"), "m s-1")}
+        v = {}
+        for name, (dims, units) in spec.items():
+            if name == omit:
+                continue
+            v[name] = d.createVariable(name, "f4", dims)
+            v[name].units = units
+        zs = 1000.0 * np.arange(nz + 1)
+        zm = 0.5 * (zs[1:] + zs[:-1])
+        jj, ii = np.mgrid[0:ny, 0:nx]
+        blob = np.exp(-((ii - 4.5) ** 2 + (jj - 3.5) ** 2) / 6.0)
+        for k in range(nt):
+            t[k] = list(f"2011-01-10_{12 + k:02d}:00:00")
+            put = lambda n, a: v[n].__setitem__(k, a) if n in v else None
+            put("XLAT", 50 + 0.036 * jj)
+            put("XLONG", 5 + 0.056 * ii)
+            put("PH", np.zeros((nz + 1, ny, nx)))
+            put("PHB", np.broadcast_to(g * zs[:, None, None], (nz + 1, ny, nx)))
+            put("P", np.zeros((nz, ny, nx)))
+            put("PB", np.broadcast_to(1e5 * np.exp(-zm / 8000)[:, None, None], (nz, ny, nx)))
+            put("T", np.zeros((nz, ny, nx)))
+            qc = np.zeros((nz, ny, nx)); qc[1] = qc[2] = 5e-4 * blob
+            qi = np.zeros((nz, ny, nx)); qi[3] = 1e-4 * blob
+            put("QCLOUD", qc)
+            put("QICE", qi)
+            put("U", np.full((nz, ny, nx + 1), 10.0 + k))
+            put("V", np.zeros((nz, ny + 1, nx)))
+            put("W", np.zeros((nz + 1, ny, nx)))
+    return zs, blob
+
+
+class Particles(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.out = Path(cls.tmp.name) / "gfs"
+        cls.result = run("particles", "--count", "20000", "--frames", "2", "--size", "320x180", "--out", cls.out)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_gfs_outputs(self):
+        self.assertEqual(self.result.returncode, 0, self.result.stderr)
+        names = sorted(p.name for p in self.out.iterdir())
+        self.assertEqual(names, ["columns.nc", "frame_0000.png", "frame_0001.png", "frames.csv",
+                                 "particles_0000.ply", "particles_0001.ply"])
+        rows = (self.out / "frames.csv").read_text().splitlines()
+        self.assertEqual(rows[0].split(",")[:5], ["frame", "time_utc", "time_s", "particles", "drawn"])
+        self.assertEqual(rows[2].split(",")[1:4], ["2011-01-15T12:30:00Z", "1800", "20000"])
+        self.assertGreater(Fly.non_sky_fraction(None, self.out / "frame_0000.png"), 0.02)
+
+    def test_ply_is_standard_binary_ply(self):
+        import numpy as np
+        data = (self.out / "particles_0000.ply").read_bytes()
+        header, body = data.split(b"end_header\n", 1)
+        lines = header.decode().splitlines()
+        self.assertEqual(lines[:2], ["ply", "format binary_little_endian 1.0"])
+        self.assertIn("element vertex 20000", lines)
+        self.assertIn("property uchar red", lines)
+        rec = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1"),
+                        ("a", "u1"), ("radius", "<f4")])
+        pts = np.frombuffer(body, dtype=rec)
+        self.assertEqual(len(pts), 20000)
+        self.assertTrue(np.all((pts["z"] > 0) & (pts["z"] < 20000)))  # heights above MSL [m]
+        self.assertTrue(np.all(pts["r"] == pts["g"]))  # grey
+        self.assertGreater(pts["r"].std(), 5)          # lit unevenly
+
+    def test_columns_netcdf(self):
+        import xarray as xr
+        with xr.open_dataset(self.out / "columns.nc") as ds:
+            self.assertEqual(ds["cloud_optical_thickness"].attrs["standard_name"],
+                             "atmosphere_optical_thickness_due_to_cloud")
+            self.assertGreater(float(ds["cloud_optical_thickness"].max()), 10)
+            self.assertLess(float(ds["cloud_top_height"].max()), 20000)
+
+    def test_wrf_input_matches_independent_optical_thickness(self):
+        import numpy as np
+        import xarray as xr
+        with tempfile.TemporaryDirectory() as d:
+            wrf = Path(d) / "wrfout_d01_2011-01-10_12:00:00"
+            zs, blob = write_wrfout(wrf)
+            out = Path(d) / "out"
+            r = run("particles", "--wrf", wrf, "--count", "5000", "--frames", "3", "--size", "160x90", "--out", out)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            rows = (out / "frames.csv").read_text().splitlines()
+            self.assertEqual([row.split(",")[2] for row in rows[1:]], ["0", "3600", "7200"])
+            # Eq. 2 by hand: tau = 3 rho q dz / (2 rho_c r_e), liquid r_e 10 um, ice 25 um.
+            zm = 0.5 * (zs[1:] + zs[:-1])
+            p = 1e5 * np.exp(-zm / 8000)
+            rho = p / (287.04 * 300 * (p / 1e5) ** (287 / 1004.5))
+            # Layers count where their condensate exceeds the documented 1e-6 kg/kg threshold.
+            qc, qi = 5e-4 * blob, 1e-4 * blob
+            tau = (3 * (rho[1] + rho[2]) * qc * 1000 / (2 * 1000 * 10e-6)) * (qc > 1e-6) \
+                + 3 * rho[3] * qi * 1000 / (2 * 917 * 25e-6) * (qi > 1e-6)
+            with xr.open_dataset(out / "columns.nc") as ds:
+                got = ds["cloud_optical_thickness"].values
+                np.testing.assert_allclose(got, tau, rtol=1e-4)  # float32 file values
+                top = ds["cloud_top_height"].values
+                self.assertEqual(float(np.nanmax(top)), 4000.0)
+            # The westerly carries the particles east: 10 m/s rising by 1 m/s per hour over 2 h
+            # is 10*7200 + 0.5*(1/3600)*7200^2 = 79,200 m (eq. 6).
+            def xs(f):
+                b = (out / f"particles_{f:04d}.ply").read_bytes().split(b"end_header\n", 1)[1]
+                return np.frombuffer(b, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("c", "u4"), ("r", "<f4")])["x"]
+            np.testing.assert_allclose(xs(2) - xs(0), 79200, atol=0.1)
+
+    def test_bad_input(self):
+        with tempfile.TemporaryDirectory() as d:
+            wrf = Path(d) / "wrfout_bad"
+            write_wrfout(wrf, nt=1, omit="QCLOUD")
+            out = Path(d) / "out"
+            Info.assert_input_error(self, run("particles", "--wrf", wrf, "--out", out), "QCLOUD", "missing")
+            self.assertFalse(out.exists())
+            Info.assert_input_error(self, run("particles", "--wrf", Path(d) / "none.nc", "--out", out), "none.nc")
+            Info.assert_input_error(self, run("particles", "--region", "10,10,11,11", "--out", out), "--region")
+            Info.assert_input_error(self, run("particles", "--transmission", "fog", "--out", out), "--transmission")
+            self.assertFalse(out.exists())
+
 class Bench(unittest.TestCase):
     def test_render_bench_smoke(self):
         r = run("bench", "render", "--quick", "--repeat", "1")
@@ -336,6 +481,12 @@ class Bench(unittest.TestCase):
             self.assertEqual(r.returncode, 0, r.stderr)
             self.assertEqual((Path(d) / "plot.png").read_bytes()[:4], b"\x89PNG")
         for anchor in ("p95 ms", "p99 ms", "CPU load", "200"):
+            self.assertIn(anchor, r.stdout)
+
+    def test_particles_bench_smoke(self):
+        r = run("bench", "particles", "--frames", "1", "--max-count", "100000")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for anchor in ("generated/s", "frame ms", "100000", "on", "off"):
             self.assertIn(anchor, r.stdout)
 
     def test_lbm_bench_smoke(self):

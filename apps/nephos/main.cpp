@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "fly_bench.hpp"
@@ -22,6 +23,7 @@
 #include "nephos/core/parse.hpp"
 #include "nephos/core/progress.hpp"
 #include "nephos/core/time.hpp"
+#include "nephos/earth/earth.hpp"
 #include "nephos/earth/sun.hpp"
 #include "nephos/io/png.hpp"
 #include "nephos/io/vdb_writer.hpp"
@@ -30,6 +32,9 @@
 #include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
+#include "nephos/particles/particles_io.hpp"
+#include "nephos/particles/scene.hpp"
+#include "nephos/particles/wrf_reader.hpp"
 #include "nephos/realtime/cloud_field.hpp"
 #include "nephos/realtime/frame_logic.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
@@ -42,6 +47,7 @@
 #include "nephos/weather/masks_io.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/synthetic.hpp"
+#include "particles_bench.hpp"
 #include "render_bench.hpp"
 
 namespace fs = std::filesystem;
@@ -442,6 +448,113 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   return 0;
 }
 
+struct ParticlesOptions {
+  std::vector<std::string> weather;
+  std::string wrf;
+  std::string region;  // default: the whole WRF domain; for GFS the North Atlantic and Europe
+  std::size_t count = 200000;
+  int frames = 4;
+  double frame_minutes = 30;
+  std::string camera;  // X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG; default: south of the region
+  std::string size = "1280x720";
+  double k = 1;
+  double lod_l0_km = 0;
+  bool no_lod = false;
+  std::string transmission = "two-stream";
+  int refine = 0;  // 0: GFS cells split to <= 30 km, WRF as it is
+  bool no_ply = false;
+  std::string out = "out/particles";
+};
+
+constexpr const char* default_gfs_particle_region = "30,-50,65,10";
+
+int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
+  const auto [width, height] = parse_size(o.size);
+  if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
+  if (o.count < 1) throw ValueError("must be >= 1", {.key = "--count"});
+  if (!o.wrf.empty() && !o.weather.empty()) throw ValueError("give --weather or --wrf, not both", {.key = "--wrf"});
+  particles::ParticleWeather pw;
+  if (!o.wrf.empty()) {
+    std::optional<particles::LatLonRegion> region;
+    if (!o.region.empty()) region = particles::LatLonRegion::parse(o.region, "--region");
+    pw = particles::read_wrf(o.wrf, region);
+  } else {
+    std::vector<weather::WeatherGrid> grids;
+    if (o.weather.empty()) grids.push_back(weather::open_weather(default_weather()));
+    for (const auto& f : o.weather) grids.push_back(weather::open_weather(f));
+    pw = particles::from_weather_grids(
+        grids, particles::LatLonRegion::parse(o.region.empty() ? default_gfs_particle_region : o.region, "--region"));
+  }
+  const int factor = o.refine > 0 ? o.refine : o.wrf.empty() ? particles::refine_factor_for(pw.grid, 30000) : 1;
+  if (o.refine < 0) throw ValueError("must be >= 0", {.key = "--refine"});
+  if (factor > 1) pw = particles::refine(pw, factor);
+  particles::SceneParams sp;
+  sp.generation.count = o.count;
+  sp.generation.k = o.k;
+  sp.generation.seed = g.seed;
+  sp.lod = !o.no_lod;
+  sp.lod_params.l0_m = o.lod_l0_km * 1000;
+  if (o.transmission == "beer")
+    sp.illumination.transmission = particles::Transmission::beer;
+  else if (o.transmission != "two-stream")
+    throw ValueError("must be 'two-stream' or 'beer', got '" + o.transmission + "'", {.key = "--transmission"});
+  spdlog::info("particle weather: {} columns x {} rows of {:.1f} x {:.1f} km, {} time(s), max optical thickness {:.1f}",
+               pw.grid.cols, pw.grid.rows, pw.grid.dx_m / 1000, pw.grid.dy_m / 1000, pw.frames.size(),
+               pw.frames.front().columns.max_tau());
+  const auto t_gen = std::chrono::steady_clock::now();
+  particles::ParticleScene scene(std::move(pw), sp);
+  const double gen_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_gen).count();
+  const auto& w = scene.weather();
+
+  realtime::Camera cam = scene.default_camera();
+  if (!o.camera.empty()) {
+    const auto c = parse_numbers(o.camera, 5, "--camera", "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG");
+    const double h = c[3] * earth::deg, p = c[4] * earth::deg;
+    cam.position = {c[0] * 1000, c[1] * 1000, c[2] * 1000};
+    cam.forward = {std::sin(h) * std::cos(p), std::cos(h) * std::cos(p), std::sin(p)};
+  }
+  const double t_last = w.frames.back().time_s;
+  auto frame_time = [&](int f) {
+    if (w.frames.size() > 1 && o.frames > 1) return t_last * f / (o.frames - 1);
+    return f * o.frame_minutes * 60.0;
+  };
+
+  const fs::path out(o.out);
+  ensure_directory(out);
+  particles::write_columns_netcdf(out / "columns.nc", w, 0);
+  realtime::SpriteRenderer renderer(width, height, g.seed);
+  AtomicFile csv(out / "frames.csv");
+  std::ofstream table(csv.temp_path());
+  table << "frame,time_utc,time_s,particles,drawn,motion_ms,lod_ms,light_ms,sort_ms,draw_ms\n";
+  Progress progress("particles", static_cast<std::size_t>(o.frames));
+  for (int f = 0; f < o.frames; ++f) {
+    const double t = frame_time(f);
+    const auto t0 = std::chrono::steady_clock::now();
+    scene.move_to(t);
+    const double motion_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    particles::FrameTimings tm;
+    const realtime::PointSprites sprites = scene.sprites(t, cam.position, &tm);
+    const realtime::FrameStats st = renderer.draw_points(sprites, cam);
+    table << fmt::format("{},{},{:.0f},{},{},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f}\n", f, scene.time_at(t).iso(), t,
+                         scene.current().size(), tm.drawn, motion_ms, tm.lod_ms, tm.light_ms, tm.sort_ms,
+                         st.milliseconds);
+    const auto rgba = renderer.read_pixels();
+    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(width) * height * 3);
+    for (std::size_t i = 0, n = static_cast<std::size_t>(width) * height; i < n; ++i)
+      std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
+    io::write_png(out / fmt::format("frame_{:04d}.png", f), width, height, 3, rgb);
+    if (!o.no_ply)
+      particles::write_particles_ply(out / fmt::format("particles_{:04d}.ply", f), scene.current(), scene.shade_all(t),
+                                     w, scene.time_at(t));
+    progress.advance();
+  }
+  table.close();
+  csv.commit();
+  std::cout << fmt::format(
+      "particles: {} particles from {} ({} x {} columns) generated in {:.2f} s; {} frames of {}x{} in {}\n",
+      scene.initial().size(), w.source, w.grid.cols, w.grid.rows, gen_s, o.frames, width, height, out.string());
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -526,6 +639,26 @@ int main(int argc, char** argv) {
   fly->add_flag("--no-sort-opt", fo.no_sort_opt, "Re-sort every frame instead of only when the view changed");
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
+  ParticlesOptions po;
+  auto* part = app.add_subcommand("particles", "Particle-system clouds from WRF or GFS (cloud top, optical thickness)");
+  part->add_option("--weather", po.weather, "GRIB weather file(s), one per time (default: the embedded GFS sample)");
+  part->add_option("--wrf", po.wrf, "WRF output (wrfout NetCDF), all its times");
+  part->add_option("--region", po.region, "LAT0,LON0,LAT1,LON1 [deg] (default: GFS 30,-50,65,10; WRF all)");
+  part->add_option("--count", po.count, "Particles")->capture_default_str();
+  part->add_option("--frames", po.frames, "Frames (spread over the weather's times)")->capture_default_str();
+  part->add_option("--frame-minutes", po.frame_minutes, "Minutes between frames when the weather has one time")
+      ->capture_default_str();
+  part->add_option("--camera", po.camera, "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG (default: south of the region)");
+  part->add_option("--size", po.size, "Frame WIDTHxHEIGHT")->capture_default_str();
+  part->add_option("--k", po.k, "Eq. 5's K: selection probability min(1, K tau / tau_max)")->capture_default_str();
+  part->add_option("--lod-l0-km", po.lod_l0_km, "Eq. 13's L0 [km] (0: a quarter of the region)")->capture_default_str();
+  part->add_flag("--no-lod", po.no_lod, "Draw every particle");
+  part->add_option("--transmission", po.transmission, "two-stream or beer")->capture_default_str();
+  part->add_option("--refine", po.refine, "Split each weather cell NxN (0: GFS to <= 30 km cells, WRF unchanged)")
+      ->capture_default_str();
+  part->add_flag("--no-ply", po.no_ply, "Do not write the particle set as PLY");
+  part->add_option("--out", po.out, "Output directory")->capture_default_str();
+
   auto* bench = app.add_subcommand("bench", "Benchmarks that print measured figures beside their anchors");
   bench->require_subcommand(1);
   bench::RenderBenchOptions rbo;
@@ -538,6 +671,12 @@ int main(int argc, char** argv) {
   auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
   bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str();
   bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
+  bench::ParticlesBenchOptions pbo;
+  auto* bench_part =
+      bench->add_subcommand("particles", "Particle generation rate and frame times, with and without LOD");
+  bench_part->add_option("--frames", pbo.frames, "Frames per case (median reported)")->capture_default_str();
+  bench_part->add_option("--max-count", pbo.max_count, "Largest particle count (10^5 and 10^6 by default)")
+      ->capture_default_str();
   bench::LbmBenchOptions lbo;
   auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
   bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
@@ -565,6 +704,8 @@ int main(int argc, char** argv) {
     if (*fly) return run_fly(fo, g);
     if (*bench_lbm) return bench::run_lbm_bench(lbo, g.seed);
     if (*bench_fly) return bench::run_fly_bench(fbo, g.seed);
+    if (*part) return run_particles(po, g);
+    if (*bench_part) return bench::run_particles_bench(pbo, g.seed);
   } catch (const Error& e) {
     std::cerr << "nephos: error: " << e.what() << "\n";
     return exit_input_error;

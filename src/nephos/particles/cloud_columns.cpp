@@ -82,6 +82,85 @@ void ParticleWeather::validate() const {
   }
 }
 
+int refine_factor_for(const PlanarGrid& g, double target_m) {
+  return std::max(1, static_cast<int>(std::ceil(std::max(g.dx_m, g.dy_m) / target_m - 1e-9)));
+}
+
+ParticleWeather refine(const ParticleWeather& w, int factor) {
+  if (factor < 1)
+    throw ValueError("the refinement factor must be >= 1, got " + std::to_string(factor), {.key = "--refine"});
+  w.validate();
+  if (factor == 1) return w;
+  const PlanarGrid& g = w.grid;
+  ParticleWeather out;
+  out.source = w.source;
+  PlanarGrid& r = out.grid;
+  r = g;
+  r.cols = g.cols * factor, r.rows = g.rows * factor;
+  r.dx_m = g.dx_m / factor, r.dy_m = g.dy_m / factor;
+  r.x0_m = g.x0_m - 0.5 * g.dx_m + 0.5 * r.dx_m;
+  r.y0_m = g.y0_m - 0.5 * g.dy_m + 0.5 * r.dy_m;
+  // Bilinear stencil of every new cell centre in the old grid (clamped at the edges).
+  struct Stencil {
+    std::size_t c[4];
+    double w[4];
+  };
+  std::vector<Stencil> st(r.size());
+  for (int j = 0; j < r.rows; ++j)
+    for (int i = 0; i < r.cols; ++i) {
+      const double fc = std::clamp((r.x(i) - g.x0_m) / g.dx_m, 0.0, g.cols - 1.0);
+      const double fr = std::clamp((r.y(j) - g.y0_m) / g.dy_m, 0.0, g.rows - 1.0);
+      const int i0 = std::min(static_cast<int>(fc), g.cols - 2), j0 = std::min(static_cast<int>(fr), g.rows - 2);
+      const double tx = fc - i0, ty = fr - j0;
+      Stencil& s = st[static_cast<std::size_t>(j) * r.cols + i];
+      for (int q = 0; q < 4; ++q) {
+        const int di = q & 1, dj = q >> 1;
+        s.c[q] = static_cast<std::size_t>(j0 + dj) * g.cols + static_cast<std::size_t>(i0 + di);
+        s.w[q] = (di ? tx : 1 - tx) * (dj ? ty : 1 - ty);
+      }
+    }
+  const std::size_t plane = g.size(), rplane = r.size();
+  for (const WeatherFrame& f : w.frames) {
+    WeatherFrame nf;
+    nf.time_s = f.time_s;
+    nf.valid_time = f.valid_time;
+    nf.columns.tau.resize(rplane);
+    nf.columns.base_m.resize(rplane);
+    nf.columns.top_m.resize(rplane);
+    nf.wind.levels = f.wind.levels;
+    const std::size_t nl = static_cast<std::size_t>(f.wind.levels);
+    for (auto* a : {&nf.wind.z_m, &nf.wind.u, &nf.wind.v, &nf.wind.w}) a->resize(nl * rplane);
+    for (std::size_t n = 0; n < rplane; ++n) {
+      const Stencil& s = st[n];
+      double tau = 0, base = 0, top = 0, wc = 0;
+      for (int q = 0; q < 4; ++q) {
+        tau += s.w[q] * f.columns.tau[s.c[q]];
+        if (f.columns.tau[s.c[q]] > 0 && s.w[q] > 0) {
+          base += s.w[q] * f.columns.base_m[s.c[q]];
+          top += s.w[q] * f.columns.top_m[s.c[q]];
+          wc += s.w[q];
+        }
+      }
+      const bool cloudy = tau > 0 && wc > 0;
+      nf.columns.tau[n] = cloudy ? static_cast<float>(tau) : 0.0f;
+      nf.columns.base_m[n] = cloudy ? static_cast<float>(base / wc) : nan_f;
+      nf.columns.top_m[n] = cloudy ? static_cast<float>(top / wc) : nan_f;
+      for (std::size_t k = 0; k < nl; ++k) {
+        double z = 0, u = 0, v = 0, ww = 0;
+        for (int q = 0; q < 4; ++q) {
+          const std::size_t a = k * plane + s.c[q];
+          z += s.w[q] * f.wind.z_m[a], u += s.w[q] * f.wind.u[a], v += s.w[q] * f.wind.v[a], ww += s.w[q] * f.wind.w[a];
+        }
+        const std::size_t b = k * rplane + n;
+        nf.wind.z_m[b] = static_cast<float>(z), nf.wind.u[b] = static_cast<float>(u);
+        nf.wind.v[b] = static_cast<float>(v), nf.wind.w[b] = static_cast<float>(ww);
+      }
+    }
+    out.frames.push_back(std::move(nf));
+  }
+  return out;
+}
+
 LatLonRegion LatLonRegion::parse(const std::string& text, const std::string& key) {
   const auto v = parse_numbers(text, 4, key, "LAT0,LON0,LAT1,LON1 in degrees (south, west, north, east)");
   LatLonRegion r{v[0], v[1], v[2], v[3]};
@@ -160,9 +239,8 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
   pg.y0_m = (g.lat(rows.front()) - pg.centre_lat_deg) * deg * earth::radius_m;
 
   std::vector<weather::WeatherGrid> sorted = grids;
-  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
-    return a.metadata().valid_time < b.metadata().valid_time;
-  });
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.metadata().valid_time < b.metadata().valid_time; });
   const UtcTime t0 = sorted.front().metadata().valid_time;
   pw.source = sorted.front().metadata().source;
   for (std::size_t f = 1; f < sorted.size(); ++f) pw.source += ", " + sorted[f].metadata().source;
@@ -214,8 +292,8 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
           const double t = w.value(Field::temperature, k, j, i);
           const double rho = p_pa[static_cast<std::size_t>(k)] / (r_dry_air * t);
           const double q = std::max(0.0, static_cast<double>(w.value(Field::cloud_water, k, j, i)));
-          const double ice = std::clamp((params.ice_ramp_warm_k - t) / (params.ice_ramp_warm_k - params.ice_ramp_cold_k),
-                                        0.0, 1.0);
+          const double ice =
+              std::clamp((params.ice_ramp_warm_k - t) / (params.ice_ramp_warm_k - params.ice_ramp_cold_k), 0.0, 1.0);
           col.air_density[m] = rho;
           col.q_liquid[m] = q * (1 - ice);
           col.q_ice[m] = q * ice;

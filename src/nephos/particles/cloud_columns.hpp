@@ -23,8 +23,8 @@ namespace nephos::particles {
 /// one-dimensional array A (eqs. 3-4: col = R mod COLS, row = floor(R / COLS)).
 struct PlanarGrid {
   int cols = 0, rows = 0;
-  double dx_m = 0, dy_m = 0;  ///< cell size
-  double x0_m = 0, y0_m = 0;  ///< centre of cell (0, 0)
+  double dx_m = 0, dy_m = 0;                      ///< cell size
+  double x0_m = 0, y0_m = 0;                      ///< centre of cell (0, 0)
   double centre_lat_deg = 0, centre_lon_deg = 0;  ///< where the plane touches the Earth (for the sun)
   std::size_t size() const { return static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows); }
   double x(double col) const { return x0_m + col * dx_m; }
@@ -76,6 +76,15 @@ struct ParticleWeather {
   /// Throws ValueError if frames are empty, unsorted or sized unlike the grid.
   void validate() const;
 };
+
+/// The seed's "conversion of the resolution": every cell split into factor x factor cells, the
+/// optical thickness interpolated bilinearly (so cloud edges fade over a coarse cell instead of
+/// ending in a step), cloud base and top bilinearly over the cloudy neighbours only, the wind and
+/// level heights bilinearly (which reproduces WindVolume::sample exactly inside the grid).
+/// factor 1 returns a copy. Throws ValueError for factor < 1.
+ParticleWeather refine(const ParticleWeather& w, int factor);
+/// The factor that brings the larger cell side to at most target_m (1 if it is already).
+int refine_factor_for(const PlanarGrid& g, double target_m);
 
 /// Region of interest on the globe [deg]: south, west, north, east (west > east crosses 180 deg).
 struct LatLonRegion {

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
@@ -113,8 +114,8 @@ TEST(FromWeatherGrids, ErrorsNameTheProblem) {
 }
 
 TEST(FromWeatherGrids, RealGfsColumnsAgreeWithGfsCloudCover) {
-  const auto w = weather::open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data" /
-                                       "gfs_20110110_12z_f120_2p5deg.grib2");
+  const auto w =
+      weather::open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data" / "gfs_20110110_12z_f120_2p5deg.grib2");
   const auto pw = from_weather_grids({w}, LatLonRegion{-80, 0, 80, 357.5});
   const auto& c = pw.frames[0].columns;
   ASSERT_TRUE(w.has_cloud_cover(weather::CloudLayer::total));
@@ -135,5 +136,31 @@ TEST(FromWeatherGrids, RealGfsColumnsAgreeWithGfsCloudCover) {
       }
     }
   ASSERT_GT(thick, 200u);
+  std::cout << "[ measured ] " << thick_and_cloudy << " of " << thick << " columns with tau > 5 have GFS tcc > 0.5\n";
   EXPECT_GT(static_cast<double>(thick_and_cloudy) / static_cast<double>(thick), 0.85);
+}
+
+TEST(Refine, SubdividesCellsAndKeepsTheWindField) {
+  const auto pw = from_weather_grids({small_world()}, LatLonRegion{30, -10, 50, 20});
+  const auto r = refine(pw, 4);
+  EXPECT_EQ(r.grid.cols, 52);
+  EXPECT_EQ(r.grid.rows, 36);
+  EXPECT_NEAR(r.grid.dx_m, pw.grid.dx_m / 4, 1e-9);
+  // The new cells tile the old ones: the outer edges coincide.
+  EXPECT_NEAR(r.grid.x0_m - 0.5 * r.grid.dx_m, pw.grid.x0_m - 0.5 * pw.grid.dx_m, 1e-6);
+  // The cloudy cell's optical thickness fades bilinearly: at the old centre's nearest new cells
+  // (1/8 of an old cell away in x and y) it keeps (7/8)^2 of its value.
+  const float tau_old = pw.frames[0].columns.tau[4 * 13 + 8];
+  const std::size_t near = static_cast<std::size_t>(4 * 4 + 2) * 52 + (8 * 4 + 2);
+  EXPECT_NEAR(r.frames[0].columns.tau[near], tau_old * 49.0f / 64.0f, 1e-4 * tau_old);
+  EXPECT_NEAR(r.frames[0].columns.top_m[near], pw.frames[0].columns.top_m[4 * 13 + 8], 1e-3);
+  // Inside the grid the refined wind equals the original bilinear wind.
+  for (double fx : {0.3, 0.55, 0.8})
+    for (double z : {1000.0, 2500.0, 4000.0}) {
+      const double x = pw.grid.x0_m + fx * (pw.grid.cols - 1) * pw.grid.dx_m, y = pw.grid.y0_m + fx * pw.grid.dy_m;
+      const glm::dvec3 a = pw.frames[0].wind.sample(pw.grid, x, y, z), b = r.frames[0].wind.sample(r.grid, x, y, z);
+      EXPECT_NEAR(glm::length(a - b), 0.0, 1e-4);  // float storage
+    }
+  EXPECT_EQ(refine_factor_for(pw.grid, 30000), 10);  // 278 km / 30 km -> 10
+  EXPECT_THROW(refine(pw, 0), ValueError);
 }

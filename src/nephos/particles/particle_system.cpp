@@ -39,7 +39,8 @@ Particles generate(const PlanarGrid& grid, const CloudColumns& columns, const Ge
   if (!(lmax > 0)) throw ValueError("no cloudy column (optical thickness > 0) in the region", {.key = "--region"});
   double volume_m3 = 0;
   for (std::size_t c = 0; c < grid.size(); ++c)
-    if (columns.tau[c] > 0) volume_m3 += static_cast<double>(columns.top_m[c] - columns.base_m[c]) * grid.dx_m * grid.dy_m;
+    if (columns.tau[c] > 0)
+      volume_m3 += static_cast<double>(columns.top_m[c] - columns.base_m[c]) * grid.dx_m * grid.dy_m;
   const double radius = p.radius_scale * std::cbrt(volume_m3 / static_cast<double>(std::max<std::size_t>(p.count, 1)));
   const std::uint64_t n_cols = grid.size();
   const double k_over_lmax = p.k / lmax;
@@ -54,7 +55,7 @@ Particles generate(const PlanarGrid& grid, const CloudColumns& columns, const Ge
     std::uint64_t r = 0;
     std::uint64_t a = 0;
     for (; a < max_attempts; ++a) {
-      r = hash(p.seed, i, a, stream_index) % n_cols;                         // eq. 3-4's random index R
+      r = hash(p.seed, i, a, stream_index) % n_cols;                                        // eq. 3-4's random index R
       const double m = columns.tau[r] * k_over_lmax - uniform01(p.seed, i, a, stream_tau);  // eq. 5
       if (m > 0) break;
     }
@@ -143,12 +144,14 @@ LodSelection select_lod(const Particles& p, const glm::dvec3& camera, const LodP
     throw ValueError("LOD needs L0 > 0 and a band ratio > 1", {.key = "--lod-l0-km"});
   const std::size_t n = p.size();
   std::vector<int> band(n);
+  std::vector<std::uint64_t> key(n);
   const auto count = static_cast<std::int64_t>(n);
 #pragma omp parallel for schedule(static)
   for (std::int64_t ii = 0; ii < count; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
     const glm::dvec3 d{p.x[i] - camera.x, p.y[i] - camera.y, p.z[i] - camera.z};
     band[i] = lod_band(glm::length(d), lod);
+    key[i] = hash(seed, i, stream_lod);
   }
   const int bands = n ? *std::max_element(band.begin(), band.end()) + 1 : 0;
   LodSelection s;
@@ -156,28 +159,30 @@ LodSelection select_lod(const Particles& p, const glm::dvec3& camera, const LodP
   for (int b : band) ++s.band_counts[static_cast<std::size_t>(b)];
   // Bucket the particles by band (counting sort keeps index order within a band).
   std::vector<std::size_t> start(static_cast<std::size_t>(bands) + 1, 0);
-  for (int b = 0; b < bands; ++b) start[static_cast<std::size_t>(b) + 1] = start[static_cast<std::size_t>(b)] + s.band_counts[static_cast<std::size_t>(b)];
-  std::vector<std::uint32_t> bucket(n);
+  for (int b = 0; b < bands; ++b)
+    start[static_cast<std::size_t>(b) + 1] =
+        start[static_cast<std::size_t>(b)] + s.band_counts[static_cast<std::size_t>(b)];
+  // (survival key, particle) pairs bucketed by band; the key is a hash of the particle alone.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> bucket(n);
   {
     std::vector<std::size_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) bucket[fill[static_cast<std::size_t>(band[i])]++] = static_cast<std::uint32_t>(i);
+    for (std::size_t i = 0; i < n; ++i)
+      bucket[fill[static_cast<std::size_t>(band[i])]++] = {key[i], static_cast<std::uint32_t>(i)};
   }
   s.band_kept.assign(static_cast<std::size_t>(bands), 0);
   for (int b = 0; b < bands; ++b) {
     const std::size_t nb = s.band_counts[static_cast<std::size_t>(b)];
     if (nb == 0) continue;
     const double keep = b == 0 ? 1.0 : std::pow(lod.l0_m / lod_band_distance(b, lod), 3);  // eq. 13
-    const std::size_t nk = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(static_cast<double>(nb) * keep)));
-    s.band_kept[static_cast<std::size_t>(b)] = std::min(nk, nb);
+    const std::size_t nk =
+        std::min(nb, std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(static_cast<double>(nb) * keep))));
+    s.band_kept[static_cast<std::size_t>(b)] = nk;
     auto first = bucket.begin() + static_cast<std::ptrdiff_t>(start[static_cast<std::size_t>(b)]);
-    auto last = first + static_cast<std::ptrdiff_t>(nb);
     if (nk < nb)
-      std::nth_element(first, first + static_cast<std::ptrdiff_t>(nk), last, [&](std::uint32_t a, std::uint32_t c) {
-        return hash(seed, a, stream_lod) < hash(seed, c, stream_lod);
-      });
-    const float factor = static_cast<float>(std::cbrt(static_cast<double>(nb) / static_cast<double>(std::min(nk, nb))));
-    for (auto it = first; it != first + static_cast<std::ptrdiff_t>(std::min(nk, nb)); ++it) {
-      s.kept.push_back(*it);
+      std::nth_element(first, first + static_cast<std::ptrdiff_t>(nk), first + static_cast<std::ptrdiff_t>(nb));
+    const float factor = static_cast<float>(std::cbrt(static_cast<double>(nb) / static_cast<double>(nk)));
+    for (auto it = first; it != first + static_cast<std::ptrdiff_t>(nk); ++it) {
+      s.kept.push_back(it->second);
       s.size_factor.push_back(factor);
     }
   }
@@ -200,8 +205,19 @@ double inverse_square_line_integral(const glm::dvec3& r_c, const glm::dvec3& r_d
   return intensity / v * (std::atan((b + d) / v) - std::atan(b / v));
 }
 
-double optical_depth_towards(const PlanarGrid& g, const CloudColumns& c, const glm::dvec3& from, const glm::dvec3& dir,
-                             double max_distance_m) {
+namespace {
+struct HeightRange {
+  double lowest_base = inf, highest_top = 0;
+};
+HeightRange height_range(const CloudColumns& c) {
+  HeightRange h;
+  h.highest_top = c.max_top_m();
+  for (float b : c.base_m)
+    if (!std::isnan(b)) h.lowest_base = std::min(h.lowest_base, static_cast<double>(b));
+  return h;
+}
+double optical_depth(const PlanarGrid& g, const CloudColumns& c, const HeightRange& range, const glm::dvec3& from,
+                     const glm::dvec3& dir, double max_distance_m) {
   // Grid box edges and the ray's extent inside it (2D slab test).
   const double xmin = g.x0_m - 0.5 * g.dx_m, ymin = g.y0_m - 0.5 * g.dy_m;
   const double xmax = xmin + g.cols * g.dx_m, ymax = ymin + g.rows * g.dy_m;
@@ -217,14 +233,8 @@ double optical_depth_towards(const PlanarGrid& g, const CloudColumns& c, const g
     if (ta > tb) std::swap(ta, tb);
     t0 = std::max(t0, ta), t1 = std::min(t1, tb);
   }
-  const double top = c.max_top_m();
-  if (dir.z > 0) t1 = std::min(t1, (top - from.z) / dir.z);
-  if (dir.z < 0) {
-    double lowest = inf;
-    for (float b : c.base_m)
-      if (!std::isnan(b)) lowest = std::min(lowest, static_cast<double>(b));
-    t1 = std::min(t1, (lowest - from.z) / dir.z);
-  }
+  if (dir.z > 0) t1 = std::min(t1, (range.highest_top - from.z) / dir.z);
+  if (dir.z < 0) t1 = std::min(t1, (range.lowest_base - from.z) / dir.z);
   if (!(t1 > t0)) return 0;
 
   // Amanatides-Woo walk through the cells from t0 to t1.
@@ -267,6 +277,12 @@ double optical_depth_towards(const PlanarGrid& g, const CloudColumns& c, const g
   }
   return tau;
 }
+}  // namespace
+
+double optical_depth_towards(const PlanarGrid& g, const CloudColumns& c, const glm::dvec3& from, const glm::dvec3& dir,
+                             double max_distance_m) {
+  return optical_depth(g, c, height_range(c), from, dir, max_distance_m);
+}
 
 std::vector<float> illuminate(const PlanarGrid& g, const CloudColumns& c, const Particles& p, const Light& light,
                               const IlluminationParams& params) {
@@ -274,6 +290,7 @@ std::vector<float> illuminate(const PlanarGrid& g, const CloudColumns& c, const 
   std::vector<double> e(n);
   const auto count = static_cast<std::int64_t>(n);
   const bool night = light.directional && light.direction.z <= 0;
+  const HeightRange range = height_range(c);
 #pragma omp parallel for schedule(dynamic, 1024)
   for (std::int64_t ii = 0; ii < count; ++ii) {
     const auto i = static_cast<std::size_t>(ii);
@@ -286,14 +303,15 @@ std::vector<float> illuminate(const PlanarGrid& g, const CloudColumns& c, const 
       dir = to / reach;
       // Eq. (14) averaged over the particle's diameter along the light direction with eq. (17).
       const double d = std::min(2.0 * p.radius_m[i], 0.5 * reach);
-      irradiance = d > 0 ? inverse_square_line_integral(pos - 0.5 * d * dir, dir, light.position, d, light.intensity) / d
-                         : light.intensity / (reach * reach);
+      irradiance = d > 0
+                       ? inverse_square_line_integral(pos - 0.5 * d * dir, dir, light.position, d, light.intensity) / d
+                       : light.intensity / (reach * reach);
     }
     if (night) {
       e[i] = 0;
       continue;
     }
-    const double tau = optical_depth_towards(g, c, pos, dir, reach);
+    const double tau = optical_depth(g, c, range, pos, dir, reach);
     const double transmission = params.transmission == Transmission::beer
                                     ? optics::beer_transmittance(tau)
                                     : optics::two_stream_slab((1 - params.asymmetry) * tau, 1.0).transmittance;

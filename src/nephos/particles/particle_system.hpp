@@ -14,9 +14,9 @@
 namespace nephos::particles {
 
 struct Particles {
-  std::vector<float> x, y, z;        ///< position [m] (planar grid coordinates, height above MSL)
-  std::vector<float> radius_m;       ///< sprite radius
-  std::vector<float> opacity;        ///< 1 - exp(-sigma * 2 radius), from the birth column's extinction
+  std::vector<float> x, y, z;         ///< position [m] (planar grid coordinates, height above MSL)
+  std::vector<float> radius_m;        ///< sprite radius
+  std::vector<float> opacity;         ///< 1 - exp(-sigma * 2 radius), from the birth column's extinction
   std::vector<std::uint32_t> column;  ///< birth column index R (eqs. 3-4)
   std::size_t size() const { return x.size(); }
   void resize(std::size_t n);
@@ -54,7 +54,7 @@ class Motion {
   const ParticleWeather& w_;
   std::size_t interval_ = 0;  // current interval (n), or frames.size()-1 for the open end
   double t_start_ = 0;
-  std::vector<float> x0_, y0_, z0_;  // initial positions (for going back in time)
+  std::vector<float> x0_, y0_, z0_;                                // initial positions (for going back in time)
   std::vector<float> sx_, sy_, sz_, vx_, vy_, vz_, ax_, ay_, az_;  // S0, V0, a of the interval
 };
 
@@ -97,10 +97,10 @@ double optical_depth_towards(const PlanarGrid& g, const CloudColumns& c, const g
 
 enum class Transmission { beer, two_stream };
 struct Light {
-  bool directional = true;      ///< the sun; else a point source at `position`
+  bool directional = true;        ///< the sun; else a point source at `position`
   glm::dvec3 direction{0, 0, 1};  ///< towards the sun (unit), when directional
-  glm::dvec3 position{0.0};     ///< point light [m]
-  double intensity = 1;         ///< I: irradiance of the sun, or intensity of the point light [per m^2 at 1 m]
+  glm::dvec3 position{0.0};       ///< point light [m]
+  double intensity = 1;           ///< I: irradiance of the sun, or intensity of the point light [per m^2 at 1 m]
 };
 struct IlluminationParams {
   Transmission transmission = Transmission::two_stream;

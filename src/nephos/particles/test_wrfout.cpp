@@ -45,12 +45,12 @@ void write_test_wrfout(const std::filesystem::path& path, const WrfoutSpec& s) {
     const char* units;
   };
   const std::vector<Def> defs = {
-      {"XLAT", {d_t, d_y, d_x}, "degree_north"},   {"XLONG", {d_t, d_y, d_x}, "degree_east"},
-      {"PH", {d_t, d_zs, d_y, d_x}, "m2 s-2"},     {"PHB", {d_t, d_zs, d_y, d_x}, "m2 s-2"},
-      {"P", {d_t, d_z, d_y, d_x}, "Pa"},           {"PB", {d_t, d_z, d_y, d_x}, "Pa"},
-      {"T", {d_t, d_z, d_y, d_x}, "K"},            {"QCLOUD", {d_t, d_z, d_y, d_x}, "kg kg-1"},
-      {"QICE", {d_t, d_z, d_y, d_x}, "kg kg-1"},   {"U", {d_t, d_z, d_y, d_xs}, "m s-1"},
-      {"V", {d_t, d_z, d_ys, d_x}, "m s-1"},       {"W", {d_t, d_zs, d_y, d_x}, "m s-1"},
+      {"XLAT", {d_t, d_y, d_x}, "degree_north"}, {"XLONG", {d_t, d_y, d_x}, "degree_east"},
+      {"PH", {d_t, d_zs, d_y, d_x}, "m2 s-2"},   {"PHB", {d_t, d_zs, d_y, d_x}, "m2 s-2"},
+      {"P", {d_t, d_z, d_y, d_x}, "Pa"},         {"PB", {d_t, d_z, d_y, d_x}, "Pa"},
+      {"T", {d_t, d_z, d_y, d_x}, "K"},          {"QCLOUD", {d_t, d_z, d_y, d_x}, "kg kg-1"},
+      {"QICE", {d_t, d_z, d_y, d_x}, "kg kg-1"}, {"U", {d_t, d_z, d_y, d_xs}, "m s-1"},
+      {"V", {d_t, d_z, d_ys, d_x}, "m s-1"},     {"W", {d_t, d_zs, d_y, d_x}, "m s-1"},
   };
   std::vector<int> ids(defs.size(), -1);
   for (std::size_t n = 0; n < defs.size(); ++n) {
@@ -89,19 +89,23 @@ void write_test_wrfout(const std::filesystem::path& path, const WrfoutSpec& s) {
         ok(nc_put_vara_float(nc, ids[n], start, count4, data.data()));
       }
     };
-    auto zmass = [](std::size_t k) { return 0.5 * (z_stag_m(static_cast<int>(k)) + z_stag_m(static_cast<int>(k) + 1)); };
+    auto zmass = [](std::size_t k) {
+      return 0.5 * (z_stag_m(static_cast<int>(k)) + z_stag_m(static_cast<int>(k) + 1));
+    };
     put(0, 1, ny, nx, [](std::size_t, std::size_t j, std::size_t) { return 40 + 0.03 * static_cast<double>(j); });
     put(1, 1, ny, nx, [](std::size_t, std::size_t, std::size_t i) { return -100 + 0.04 * static_cast<double>(i); });
     put(2, nz + 1, ny, nx, [](std::size_t k, std::size_t, std::size_t) { return wrf_g * 20 * static_cast<double>(k); });
-    put(3, nz + 1, ny, nx, [](std::size_t k, std::size_t, std::size_t) { return wrf_g * 980 * static_cast<double>(k); });
+    put(3, nz + 1, ny, nx,
+        [](std::size_t k, std::size_t, std::size_t) { return wrf_g * 980 * static_cast<double>(k); });
     put(4, nz, ny, nx, [](std::size_t, std::size_t, std::size_t) { return 500.0; });
     put(5, nz, ny, nx, [&](std::size_t k, std::size_t, std::size_t) { return pressure_pa(zmass(k)) - 500.0; });
     put(6, nz, ny, nx, [](std::size_t, std::size_t, std::size_t) { return 0.0; });
-    put(7, nz, ny, nx, [&](std::size_t k, std::size_t j, std::size_t i) {
-      return k == 1 && j == 3 && i == 2 ? 1e-3 * (1 + t) : 0.0;
-    });
-    put(8, nz, ny, nx, [](std::size_t k, std::size_t j, std::size_t i) { return k == 2 && j == 1 && i == 4 ? 2e-4 : 0.0; });
-    put(9, nz, ny, nx + 1, [&](std::size_t, std::size_t, std::size_t i) { return 10.0 + static_cast<double>(i) + 2 * t; });
+    put(7, nz, ny, nx,
+        [&](std::size_t k, std::size_t j, std::size_t i) { return k == 1 && j == 3 && i == 2 ? 1e-3 * (1 + t) : 0.0; });
+    put(8, nz, ny, nx,
+        [](std::size_t k, std::size_t j, std::size_t i) { return k == 2 && j == 1 && i == 4 ? 2e-4 : 0.0; });
+    put(9, nz, ny, nx + 1,
+        [&](std::size_t, std::size_t, std::size_t i) { return 10.0 + static_cast<double>(i) + 2 * t; });
     put(10, nz, ny + 1, nx, [](std::size_t, std::size_t j, std::size_t) { return -5 + 0.5 * static_cast<double>(j); });
     put(11, nz + 1, ny, nx, [](std::size_t k, std::size_t, std::size_t) { return 0.1 * static_cast<double>(k); });
   }

@@ -14,9 +14,9 @@ namespace nephos::particles::test_data {
 struct WrfoutSpec {
   int nx = 6, ny = 5, nz = 4, nt = 2;
   double dx_m = 3000, dy_m = 3000;
-  std::string omit;         ///< a variable to leave out
-  std::string bad_units;    ///< a variable written with wrong units
-  std::string swap_dims;    ///< a variable written with its two middle dimensions swapped
+  std::string omit;       ///< a variable to leave out
+  std::string bad_units;  ///< a variable written with wrong units
+  std::string swap_dims;  ///< a variable written with its two middle dimensions swapped
   bool omit_dx = false;
 };
 

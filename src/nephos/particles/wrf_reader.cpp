@@ -18,9 +18,9 @@ namespace nephos::particles {
 namespace {
 
 constexpr double wrf_r_over_cp = 287.0 / 1004.5;  // WRF module_model_constants: r_d / cp
-constexpr double wrf_p0_pa = 100000.0;           // reference pressure of theta
-constexpr double wrf_theta0_k = 300.0;           // T holds theta - 300 K
-constexpr double wrf_g = 9.81;                   // WRF's g [m s-2]
+constexpr double wrf_p0_pa = 100000.0;            // reference pressure of theta
+constexpr double wrf_theta0_k = 300.0;            // T holds theta - 300 K
+constexpr double wrf_g = 9.81;                    // WRF's g [m s-2]
 
 struct VarSpec {
   const char* name;
@@ -160,8 +160,7 @@ UtcTime parse_wrf_time(std::string s, const std::string& file) {
 ParticleWeather read_wrf(const std::filesystem::path& path, const std::optional<LatLonRegion>& region,
                          const ColumnParams& params) {
   const WrfFile f(path);
-  const std::size_t nt = f.dim("Time"), nx = f.dim("west_east"), ny = f.dim("south_north"),
-                    nz = f.dim("bottom_top");
+  const std::size_t nt = f.dim("Time"), nx = f.dim("west_east"), ny = f.dim("south_north"), nz = f.dim("bottom_top");
   const std::size_t nzs = f.dim("bottom_top_stag"), nxs = f.dim("west_east_stag"), nys = f.dim("south_north_stag");
   if (nzs != nz + 1 || nxs != nx + 1 || nys != ny + 1)
     throw FormatError("staggered dimensions must be one longer than their mass-point dimensions", {.file = f.path()});

@@ -63,7 +63,7 @@ TEST(WrfReader, DestaggersWindsToMassPoints) {
   const ParticleWeather w = read_wrf(f);
   // Column (1, 1) at the mass level of layer 1 (z = 1500 m).
   const glm::dvec3 x = w.frames[0].wind.sample(w.grid, w.grid.x(1), w.grid.y(1), 1500);
-  EXPECT_NEAR(x.x, 10 + 1.5, 1e-5);      // mean of U at i_stag 1 and 2
+  EXPECT_NEAR(x.x, 10 + 1.5, 1e-5);        // mean of U at i_stag 1 and 2
   EXPECT_NEAR(x.y, -5 + 0.5 * 1.5, 1e-5);  // mean of V at j_stag 1 and 2
   EXPECT_NEAR(x.z, 0.1 * 1.5, 1e-6);       // mean of W at k_stag 1 and 2
   EXPECT_NEAR(w.frames[1].wind.sample(w.grid, w.grid.x(1), w.grid.y(1), 1500).x, 13.5, 1e-5);

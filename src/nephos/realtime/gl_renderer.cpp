@@ -18,7 +18,8 @@ namespace {
 
 constexpr int tex_size = 64, layers_per_type = 5;
 constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
-constexpr int texture_layers = sheet_layer + 1;
+constexpr int particle_layer = sheet_layer + 1;   // soft round particle
+constexpr int texture_layers = particle_layer + 1;
 
 // Sprite textures baked from a 3D density: an ellipsoidal puff modulated by a tileable Perlin
 // fractal, seen from five elevations (-60..60 deg); opacity 1 - exp(-kappa * column density),
@@ -61,6 +62,16 @@ std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
       const double alpha = std::clamp((n - 0.42) / 0.2, 0.0, 1.0);
       const std::size_t q = ((static_cast<std::size_t>(sheet_layer) * tex_size + y) * tex_size + x) * 4;
       const auto a = static_cast<std::uint8_t>(std::lround(255 * alpha));
+      out[q] = out[q + 1] = out[q + 2] = a;
+      out[q + 3] = a;
+    }
+  // A soft round particle: opacity (1 - r^2)^2, smooth to zero at the rim.
+  for (int y = 0; y < tex_size; ++y)
+    for (int x = 0; x < tex_size; ++x) {
+      const double u = (x + 0.5) / tex_size * 2 - 1, v = (y + 0.5) / tex_size * 2 - 1;
+      const double r2 = std::min(1.0, u * u + v * v);
+      const std::size_t q = ((static_cast<std::size_t>(particle_layer) * tex_size + y) * tex_size + x) * 4;
+      const auto a = static_cast<std::uint8_t>(std::lround(255 * (1 - r2) * (1 - r2)));
       out[q] = out[q + 1] = out[q + 2] = a;
       out[q + 3] = a;
     }
@@ -276,9 +287,18 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
                          0.0f};  // camera-facing sprite (no tiling)
     m.buffer.insert(m.buffer.end(), v, v + 10);
   }
+  submit(items.size() + flats.size(), cam);
+  FrameStats s;
+  s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  s.sprites = items.size();
+  return s;
+}
+
+void SpriteRenderer::submit(std::size_t instances, const Camera& cam) {
+  auto& m = *impl_;
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
   const glm::dvec3 f = glm::normalize(cam.forward), r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
-  const double t = std::tan(0.5 * cam.fov_deg * M_PI / 180), a = static_cast<double>(w_) / h_, zn = 10, zf = 200000;
+  const double t = std::tan(0.5 * cam.fov_deg * M_PI / 180), a = static_cast<double>(w_) / h_, zn = 10, zf = cam.far_m;
   glm::mat4 view(1.0f), proj(0.0f);
   for (int i = 0; i < 3; ++i) {
     view[i][0] = static_cast<float>(r[i]);
@@ -312,11 +332,29 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m.buffer.size() * sizeof(float)), m.buffer.data(),
                GL_STREAM_DRAW);
-  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(items.size() + flats.size()));  // one draw call
+  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(instances));  // one draw call
   glFinish();
+}
+
+FrameStats SpriteRenderer::draw_points(const PointSprites& sp, const Camera& cam) {
+  auto& m = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = sp.size();
+  m.buffer.resize(10 * n);
+  float* b = m.buffer.data();
+  const auto cx = static_cast<float>(cam.position.x), cy = static_cast<float>(cam.position.y),
+             cz = static_cast<float>(cam.position.z);
+  const float layer = static_cast<float>(particle_layer);
+  for (std::size_t i = 0; i < n; ++i, b += 10) {
+    b[0] = sp.x[i] - cx, b[1] = sp.y[i] - cy, b[2] = sp.z[i] - cz, b[3] = sp.size_m[i];
+    b[4] = b[5] = b[6] = sp.grey[i];
+    b[7] = sp.alpha[i];
+    b[8] = layer, b[9] = 0;
+  }
+  submit(n, cam);
   FrameStats s;
   s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  s.sprites = items.size();
+  s.sprites = n;
   return s;
 }
 

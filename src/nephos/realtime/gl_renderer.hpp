@@ -18,6 +18,17 @@ namespace nephos::realtime {
 struct Camera {
   glm::dvec3 position, forward, up{0, 0, 1};
   double fov_deg = 60;
+  double far_m = 200000;  ///< far clipping distance
+};
+
+/// Camera-facing round sprites with their own grey and opacity (particle clouds), structure of
+/// arrays, drawn in index order: sort them back to front first.
+struct PointSprites {
+  std::vector<float> x, y, z;  ///< world position [m]
+  std::vector<float> size_m;   ///< diameter
+  std::vector<float> grey;     ///< brightness in [0, 1]
+  std::vector<float> alpha;    ///< opacity in [0, 1]
+  std::size_t size() const { return x.size(); }
 };
 
 struct FrameStats {
@@ -36,6 +47,8 @@ class SpriteRenderer {
 
   /// Draws the field's sprite clouds; `sort` re-sorts back to front (else the previous order).
   FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort);
+  /// Draws point sprites (one instanced draw call), in their given order.
+  FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// RGBA8 pixels of the last frame, rows from the top.
   std::vector<std::uint8_t> read_pixels() const;
   int width() const { return w_; }
@@ -45,6 +58,8 @@ class SpriteRenderer {
 
  private:
   struct Impl;
+  /// Uploads the instance buffer and draws `instances` quads with the camera's matrices.
+  void submit(std::size_t instances, const Camera& camera);
   std::unique_ptr<Impl> impl_;
   int w_, h_;
 };
