@@ -35,9 +35,9 @@ void write_test_wrfout(const std::filesystem::path& path, const WrfoutSpec& s) {
   }
   const std::string title = " OUTPUT FROM WRF V3.9.1 MODEL (nephos test file)";
   ok(nc_put_att_text(nc, NC_GLOBAL, "TITLE", title.size(), title.c_str()));
-  int v_times = 0;
+  int v_times = -1;
   const int times_dims[2] = {d_t, d_str};
-  ok(nc_def_var(nc, "Times", NC_CHAR, 2, times_dims, &v_times));
+  if (!s.omit_times) ok(nc_def_var(nc, "Times", NC_CHAR, 2, times_dims, &v_times));
 
   struct Def {
     const char* name;
@@ -68,9 +68,9 @@ void write_test_wrfout(const std::filesystem::path& path, const WrfoutSpec& s) {
              nz = static_cast<std::size_t>(s.nz);
   for (int t = 0; t < s.nt; ++t) {
     const auto ut = static_cast<std::size_t>(t);
-    const std::string when = "2011-01-10_" + std::to_string(12 + t) + ":00:00";  // t < 12
+    const std::string when = (s.bad_time ? "2011/01/10 " : "2011-01-10_") + std::to_string(12 + t) + ":00:00";
     const std::size_t ts[2] = {ut, 0}, tc[2] = {1, 19};
-    ok(nc_put_vara_text(nc, v_times, ts, tc, when.c_str()));
+    if (v_times >= 0) ok(nc_put_vara_text(nc, v_times, ts, tc, when.c_str()));
     auto put = [&](std::size_t n, std::size_t a, std::size_t b, std::size_t c, auto value) {
       if (ids[n] < 0) return;
       std::vector<float> data;

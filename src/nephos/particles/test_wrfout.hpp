@@ -18,6 +18,8 @@ struct WrfoutSpec {
   std::string bad_units;  ///< a variable written with wrong units
   std::string swap_dims;  ///< a variable written with its two middle dimensions swapped
   bool omit_dx = false;
+  bool omit_times = false;  ///< no Times variable
+  bool bad_time = false;    ///< Times written as "2011/01/10 12:00:00"
 };
 
 inline constexpr double wrf_g = 9.81;

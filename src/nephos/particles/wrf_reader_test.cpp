@@ -150,6 +150,28 @@ TEST(WrfReader, WrongUnitsDimensionsAndAttributesAreRefused) {
   }
 }
 
+TEST(WrfReader, TimesMustBeThereAndInWrfFormat) {
+  const auto expect_times_error = [](const WrfoutSpec& s, const char* name) {
+    const fs::path f = temp_file(name);
+    test_data::write_test_wrfout(f, s);
+    try {
+      read_wrf(f);
+      ADD_FAILURE() << name;
+    } catch (const FormatError& e) {
+      EXPECT_EQ(e.context().field, "Times") << e.what();
+    }
+  };
+  WrfoutSpec no_times;
+  no_times.omit_times = true;
+  expect_times_error(no_times, "wrf_no_times");
+  WrfoutSpec bad;
+  bad.bad_time = true;
+  expect_times_error(bad, "wrf_bad_time");
+  WrfoutSpec empty;
+  empty.nt = 0;  // the unlimited Time dimension has no records
+  expect_times_error(empty, "wrf_empty");
+}
+
 TEST(WrfReader, UnreadableFilesAreIoErrors) {
   EXPECT_THROW(read_wrf("/nonexistent/wrfout_d01"), IoError);
   const fs::path f = fs::temp_directory_path() / "nephos_not_netcdf.nc";
