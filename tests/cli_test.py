@@ -252,6 +252,17 @@ class Fly(unittest.TestCase):
         return [(Path(d) / f"frame_{i:04d}.png").read_bytes() for i in range(2)]
 
     def non_sky_fraction(self, png_path, half=None):
+        w, h, rows = Fly.read_rgb(png_path)
+        sky = bytes([110, 160, 225])
+        if half == "top":
+            rows = rows[:h // 2]
+        elif half == "bottom":
+            rows = rows[h // 2:]
+        other = sum(1 for row in rows for x in range(w) if row[3 * x:3 * x + 3] != sky)
+        return other / (w * len(rows))
+
+    @staticmethod
+    def read_rgb(png_path):
         import zlib
         import struct
         data = Path(png_path).read_bytes()
@@ -282,13 +293,41 @@ class Fly(unittest.TestCase):
                     line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
             rows.append(bytes(line))
             prev = line
-        sky = bytes([110, 160, 225])
-        if half == "top":
-            rows = rows[:h // 2]
-        elif half == "bottom":
-            rows = rows[h // 2:]
-        other = sum(1 for row in rows for x in range(w) if row[3 * x:3 * x + 3] != sky)
-        return other / (w * len(rows))
+        return w, h, rows
+
+    def test_impostors_look_like_sprites_and_update_on_the_first_frame(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = Path(d) / "imp", Path(d) / "sprites"
+            for out, extra in ((a, []), (b, ["--no-impostors"])):
+                r = run("fly", "--code", "d400", "--frames", "3", "--size", "320x180", *extra, "--out", out)
+                self.assertEqual(r.returncode, 0, r.stderr)
+            rows = (a / "frames.csv").read_text().splitlines()
+            self.assertEqual(rows[1].split(",")[3], "8")   # the whole ring on the first frame
+            self.assertEqual(rows[2].split(",")[3], "0")   # camera has not moved 15 % of the radius
+            self.assertLess(int(rows[1].split(",")[2]),   # far clouds are not drawn as sprites
+                            int((b / "frames.csv").read_text().splitlines()[1].split(",")[2]))
+            w, h, ra = Fly.read_rgb(a / "frame_0002.png")
+            _, _, rb = Fly.read_rgb(b / "frame_0002.png")
+            differ = sum(1 for y in range(h) for i in range(0, 3 * w, 3)
+                         if max(abs(ra[y][i + c] - rb[y][i + c]) for c in range(3)) > 48)
+            self.assertLess(differ / (w * h), 0.03)  # same picture up to the impostors' resampling
+
+    def test_weather_change_fades(self):
+        with tempfile.TemporaryDirectory() as d:
+            r = run("fly", "--code", "d000", "--change", "d400@0.02", "--frames", "3", "--size", "160x90",
+                    "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            # Clouds form from nothing (20 s fade): right after the change the frame is still
+            # almost pure sky, while d400 from the start is not.
+            def darkness(png):
+                w, h, rows = Fly.read_rgb(png)
+                sky = (110, 160, 225)
+                return sum(abs(row[i + c] - sky[c]) for row in rows for i in range(0, 3 * w, 3)
+                           for c in range(3)) / (3 * w * h)
+            self.assertLess(darkness(Path(d) / "frame_0002.png"), 1.0)
+            self.frames(d, "--code", "d400")
+            self.assertGreater(darkness(Path(d) / "frame_0001.png"), 10.0)
+            Info.assert_input_error(self, run("fly", "--change", "d400", "--out", d), "--change")
 
     def test_clear_sky_has_no_cloud_and_overcast_has_many(self):
         with tempfile.TemporaryDirectory() as d:

@@ -390,6 +390,9 @@ struct FlyOptions {
   double speed_kt = 250, altitude_ft = 8000;
   std::string time = "2024-06-21T10:00:00Z";
   bool no_sort_opt = false;
+  bool no_impostors = false;
+  double impostor_radius_km = 8;  // MSFS 2004's ring radius
+  std::string change;             // CODE@SECONDS: the weather changes to CODE at that time of the flight
   std::string out = "out/fly";
 };
 
@@ -399,6 +402,15 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const double lat = pos[0], lon = pos[1];
   const UtcTime time = UtcTime::parse(o.time);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
+  std::optional<std::pair<realtime::CloudRecipe, double>> change;
+  bool changed = false;
+  if (!o.change.empty()) {
+    const auto at = o.change.find('@');
+    if (at == std::string::npos)
+      throw ValueError("expected CODE@SECONDS, e.g. d400@1.5, got '" + o.change + "'", {.key = "--change"});
+    const auto secs = parse_numbers(o.change.substr(at + 1), 1, "--change", "CODE@SECONDS");
+    change.emplace(realtime::recipe_from_code(realtime::parse_weather_code(o.change.substr(0, at))), secs[0]);
+  }
   const int sources = !o.code.empty() + !o.metar.empty() + !o.foreca.empty() + !o.weather.empty();
   if (sources > 1) throw ValueError("give one of --code, --metar, --foreca, --weather", {.key = "--code"});
   realtime::CloudRecipe recipe;
@@ -417,6 +429,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   realtime::Camera cam{{0, 0, alt_m}, {1, 0, -0.05}, {0, 0, 1}, 60};
   realtime::CloudField field(recipe, g.seed, cam.position);
   realtime::SpriteRenderer renderer(width, height, g.seed);
+  renderer.set_impostor_radius(o.impostor_radius_km * 1000);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
   realtime::ResortPolicy policy;
   const fs::path out(o.out);
@@ -428,11 +441,17 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   double total_ms = 0;
   for (int f = 0; f < o.frames; ++f) {
     cam.position.x += speed_m_s / 30.0;  // 30 frames per second of flight
+    const double t_s = f / 30.0;
+    if (change && !changed && t_s >= change->second) {
+      field.change_weather(change->first, t_s, cam.position);
+      changed = true;
+    }
+    field.advance_time(t_s);
     field.follow_camera(cam.position, cam.forward);
     const bool sort = o.no_sort_opt || policy.due(cam.position, cam.forward);
-    const realtime::FrameStats st = renderer.draw(field, cam, sun, sort);
+    const realtime::FrameStats st = renderer.draw(field, cam, sun, sort, !o.no_impostors);
     total_ms += st.milliseconds;
-    table << fmt::format("{},{:.3f},{},0\n", f, st.milliseconds, st.sprites);
+    table << fmt::format("{},{:.3f},{},{}\n", f, st.milliseconds, st.sprites, st.impostor_updates);
     const auto rgba = renderer.read_pixels();
     std::vector<std::uint8_t> rgb(static_cast<std::size_t>(width) * height * 3);
     for (std::size_t i = 0, n = static_cast<std::size_t>(width) * height; i < n; ++i)
@@ -637,6 +656,10 @@ int main(int argc, char** argv) {
   fly->add_option("--altitude", fo.altitude_ft, "Altitude [ft]")->capture_default_str();
   fly->add_option("--time", fo.time, "UTC time for the sun (ISO 8601)")->capture_default_str();
   fly->add_flag("--no-sort-opt", fo.no_sort_opt, "Re-sort every frame instead of only when the view changed");
+  fly->add_flag("--no-impostors", fo.no_impostors, "Draw every cloud as sprites (no impostor ring)");
+  fly->add_option("--impostor-radius-km", fo.impostor_radius_km, "Radius of the impostor ring [km]")
+      ->capture_default_str();
+  fly->add_option("--change", fo.change, "CODE@SECONDS: the weather changes then (clouds form and dissipate)");
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
   ParticlesOptions po;

@@ -64,14 +64,9 @@ void CloudField::build_sprites(SpriteCloud& c) const {
 CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params)
     : seed_(seed), p_(params) {
   std::uint32_t id = 0;
+  layers_ = flat_layers_of(recipe);
   for (const auto& layer : recipe.layers) {
-    if (layer.type != SpriteCloudType::cumulus && layer.type != SpriteCloudType::stratocumulus) {
-      for (int k = 0; k < std::min(layer.count, 2); ++k)  // at most two flat layers of a type
-        layers_.push_back({layer.type,
-                           layer.type == SpriteCloudType::low_stratus ? layer.base_m : layer.base_m + k * 800.0,
-                           p_.field_radius_m * 1.5});
-      continue;
-    }
+    if (layer.type != SpriteCloudType::cumulus && layer.type != SpriteCloudType::stratocumulus) continue;
     const int clusters = std::max(1, layer.count / 10);
     for (int k = 0; k < layer.count; ++k, ++id) {
       SpriteCloud c{id, layer.type, {}, 0, {}, {}, 0};
@@ -90,6 +85,7 @@ CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm:
       layer_of_cloud_.push_back(layer);
     }
   }
+  next_id_ = id;
   if (!recipe.clustered && clouds_.size() > 1) {
     // Spread codes (d100/d200): push pairs closer than the minimum spacing apart (Appendix B.3),
     // a few sweeps in a fixed order (deterministic).
@@ -125,6 +121,87 @@ int CloudField::follow_camera(const glm::dvec3& camera, const glm::dvec3& forwar
     ++moved;
   }
   return moved;
+}
+
+std::vector<FlatLayer> CloudField::flat_layers_of(const CloudRecipe& recipe) const {
+  std::vector<FlatLayer> out;
+  for (const auto& layer : recipe.layers) {
+    if (layer.type == SpriteCloudType::cumulus || layer.type == SpriteCloudType::stratocumulus) continue;
+    for (int k = 0; k < std::min(layer.count, 2); ++k)  // at most two flat layers of a type
+      out.push_back({layer.type, layer.type == SpriteCloudType::low_stratus ? layer.base_m : layer.base_m + k * 800.0,
+                     p_.field_radius_m * 1.5});
+  }
+  return out;
+}
+
+void CloudField::change_weather(const CloudRecipe& recipe, double now_s, const glm::dvec3& camera) {
+  advance_time(now_s);
+  auto fade = [&](auto& x, float to) {
+    x.fade_from = x.opacity;
+    x.fade_to = to;
+    x.fade_start_s = now_s;
+  };
+  for (SpriteCloudType type : {SpriteCloudType::cumulus, SpriteCloudType::stratocumulus}) {
+    int wanted = 0;
+    const CloudLayerRecipe* layer = nullptr;
+    for (const auto& l : recipe.layers)
+      if (l.type == type) wanted += l.count, layer = &l;
+    int have = 0;
+    for (auto& c : clouds_) {
+      if (c.type != type || c.fade_to == 0) continue;
+      if (have < wanted)
+        ++have;
+      else
+        fade(c, 0.0f);  // dissipates
+    }
+    for (; have < wanted; ++have) {  // forms around the camera
+      SpriteCloud c{next_id_++, type, {}, 0, {}, {}, 0};
+      c.centre = place(*layer, c.id, 0, camera, {1, 0, 0}, false);
+      build_sprites(c);
+      c.opacity = 0;
+      fade(c, 1.0f);
+      clouds_.push_back(std::move(c));
+      layer_of_cloud_.push_back(*layer);
+    }
+  }
+  // Flat layers: keep those at the same type and altitude, fade the rest out and the new in.
+  std::vector<FlatLayer> next = flat_layers_of(recipe);
+  for (auto& l : layers_) {
+    const auto same = std::find_if(next.begin(), next.end(), [&](const FlatLayer& n) {
+      return n.type == l.type && std::abs(n.altitude_m - l.altitude_m) < 1 && n.opacity > 0;
+    });
+    if (same != next.end() && l.fade_to > 0) {
+      same->opacity = -1;  // matched: not added again
+    } else if (l.fade_to > 0) {
+      fade(l, 0.0f);
+    }
+  }
+  for (auto& n : next)
+    if (n.opacity > 0) {
+      n.opacity = 0;
+      fade(n, 1.0f);
+      layers_.push_back(n);
+    }
+}
+
+void CloudField::advance_time(double now_s) {
+  now_s_ = now_s;
+  auto update = [&](auto& x) {
+    const double t = std::clamp((now_s - x.fade_start_s) / p_.fade_s, 0.0, 1.0);
+    x.opacity = static_cast<float>(x.fade_from + (x.fade_to - x.fade_from) * t);
+  };
+  for (auto& c : clouds_) update(c);
+  for (auto& l : layers_) update(l);
+  std::vector<SpriteCloud> keep;
+  std::vector<CloudLayerRecipe> keep_layer;
+  for (std::size_t k = 0; k < clouds_.size(); ++k)
+    if (!(clouds_[k].fade_to == 0 && clouds_[k].opacity == 0)) {
+      keep.push_back(std::move(clouds_[k]));
+      keep_layer.push_back(layer_of_cloud_[k]);
+    }
+  clouds_ = std::move(keep);
+  layer_of_cloud_ = std::move(keep_layer);
+  std::erase_if(layers_, [](const FlatLayer& l) { return l.fade_to == 0 && l.opacity == 0; });
 }
 
 std::size_t CloudField::sprite_count() const {

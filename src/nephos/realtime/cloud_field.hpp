@@ -27,26 +27,41 @@ struct SpriteCloud {
   std::vector<Sprite> sprites;
   std::vector<glm::vec3> group_centres;  ///< per shading group, offsets from the centre
   std::uint32_t relocations = 0;
+  /// Formation and dissipation (MSFS 2004): opacity ramps linearly from fade_from to fade_to
+  /// over the field's fade time from fade_start_s; the renderer multiplies alpha by it.
+  float opacity = 1, fade_from = 1, fade_to = 1;
+  double fade_start_s = -1e300;
+  bool fading() const { return opacity != fade_to; }
 };
 
 struct FlatLayer {
   SpriteCloudType type;  ///< altostratus, cirrus or low stratus
   double altitude_m;
   double extent_m;  ///< half-width of the square it covers around the camera
+  float opacity = 1, fade_from = 1, fade_to = 1;
+  double fade_start_s = -1e300;
 };
 
 struct CloudFieldParams {
   double field_radius_m = 30000;  ///< clouds live within this distance of the camera
   double min_spacing_m = 3000;    ///< spread codes (d100/d200): minimum distance between clouds (B.3)
   double cluster_sigma_m = 2500;  ///< clustered codes: spread of clouds around a cluster centre (B.2)
+  double fade_s = 20;             ///< formation / dissipation time of a cloud or layer
 };
 
 class CloudField {
  public:
   CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params = {});
-  /// Moves clouds that fell behind the camera (or out of the field) to new places ahead of it.
-  /// Returns how many were relocated.
+  /// Moves clouds that fell behind the camera (or out of the field) to new places ahead of it
+  /// (12-30 km away, beyond the impostor ring). Returns how many were relocated.
   int follow_camera(const glm::dvec3& camera, const glm::dvec3& forward);
+  /// New weather at time now_s [s]: per sprite type, clouds beyond the new count dissipate
+  /// (fade out, then are removed) and missing ones form around the camera (fade in); flat layers
+  /// that go away fade out, new ones fade in. Nothing pops.
+  void change_weather(const CloudRecipe& recipe, double now_s, const glm::dvec3& camera);
+  /// Advances fades to now_s and removes clouds and layers that have fully dissipated.
+  void advance_time(double now_s);
+  double time_s() const { return now_s_; }
   const std::vector<SpriteCloud>& clouds() const { return clouds_; }
   const std::vector<FlatLayer>& layers() const { return layers_; }
   std::size_t sprite_count() const;
@@ -55,6 +70,7 @@ class CloudField {
 
  private:
   void build_sprites(SpriteCloud& c) const;
+  std::vector<FlatLayer> flat_layers_of(const CloudRecipe& recipe) const;
   glm::dvec3 place(const CloudLayerRecipe& layer, std::uint32_t id, std::uint32_t salt, const glm::dvec3& around,
                    const glm::dvec3& forward, bool ahead) const;
   std::uint64_t seed_;
@@ -62,6 +78,8 @@ class CloudField {
   std::vector<SpriteCloud> clouds_;
   std::vector<CloudLayerRecipe> layer_of_cloud_;
   std::vector<FlatLayer> layers_;
+  std::uint32_t next_id_ = 0;
+  double now_s_ = 0;
 };
 
 }  // namespace nephos::realtime

@@ -86,3 +86,34 @@ TEST(CloudField, DeterministicFromTheSeedAndLod) {
 }
 
 }  // namespace nephos::realtime
+
+TEST(CloudField, WeatherChangesFadeCloudsInAndOut) {
+  using namespace nephos::realtime;
+  const glm::dvec3 cam{0, 0, 2400};
+  CloudField field(recipe_from_code(parse_weather_code("d400")), 5, cam);
+  const std::size_t before = field.clouds().size();
+  ASSERT_EQ(before, 200u);
+  field.change_weather(recipe_from_code(parse_weather_code("d200")), 10.0, cam);  // 200 -> 30 clouds
+  // Nothing pops: every cloud is still there, those beyond the new count start to dissipate.
+  EXPECT_EQ(field.clouds().size(), before);
+  std::size_t dissipating = 0;
+  for (const auto& c : field.clouds()) dissipating += c.fade_to == 0;
+  EXPECT_EQ(dissipating, before - 30);
+  // Half-way through the fade (default 20 s) their opacity is 0.5; the flat layers of d400 fade too.
+  field.advance_time(20.0);
+  for (const auto& c : field.clouds()) EXPECT_FLOAT_EQ(c.opacity, c.fade_to == 0 ? 0.5f : 1.0f);
+  for (const auto& l : field.layers()) EXPECT_FLOAT_EQ(l.opacity, 0.5f);
+  field.advance_time(30.0);  // fully dissipated: removed
+  EXPECT_EQ(field.clouds().size(), 30u);
+  EXPECT_TRUE(field.layers().empty());
+  // And back: new clouds form from opacity 0.
+  field.change_weather(recipe_from_code(parse_weather_code("d300")), 30.0, cam);
+  field.advance_time(35.0);
+  std::size_t forming = 0;
+  for (const auto& c : field.clouds())
+    if (c.fade_to == 1 && c.opacity < 1) {
+      ++forming;
+      EXPECT_FLOAT_EQ(c.opacity, 0.25f);
+    }
+  EXPECT_EQ(forming, 75u - 30u);
+}

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <unordered_map>
 
 #include "nephos/core/error.hpp"
 #include "nephos/noise/fractal_texture.hpp"
@@ -17,6 +18,8 @@ namespace nephos::realtime {
 namespace {
 
 constexpr int tex_size = 64, layers_per_type = 5;
+constexpr int impostor_size = 256;                // MSFS 2004: eight 256 x 256 impostors
+constexpr int crossfade_frames = 8;               // frames of the crossfade between two impostor sets
 constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
 constexpr int particle_layer = sheet_layer + 1;   // soft round particle
 constexpr int texture_layers = particle_layer + 1;
@@ -79,36 +82,68 @@ std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
 }
 
 // One shader body for GLSL ES 3.00 and GLSL 3.30 core; only the version line differs.
+// Instance data (17 floats): position relative to the camera [m] and size [m]; colour (ambient +
+// per-shading-group directional, premultiplied by the cloud's opacity) and alpha; texture layer
+// and sheet tiling; bent-normal diffuse colour; fixed facing direction and height/width ratio.
 const char* vertex_body = R"(
-layout(location = 0) in vec2 corner;       // -1..1
-layout(location = 1) in vec4 pos_size;     // position relative to the camera [m], size [m]
-layout(location = 2) in vec4 colour_alpha; // shaded colour, alpha (fade)
-layout(location = 3) in vec2 layer_tiles;  // texture layer; 0 = camera-facing sprite, else a
-                                           // horizontal sheet repeating the texture this often
+layout(location = 0) in vec2 corner;        // -1..1
+layout(location = 1) in vec4 pos_size;      // position relative to the camera [m], size [m]
+layout(location = 2) in vec4 colour_alpha;  // shaded colour, alpha (opacity: formation, crossfade)
+layout(location = 3) in vec2 layer_tiles;   // texture layer; y > 0: horizontal sheet tiled y times;
+                                            // y < 0: impostor quad (render-to-texture, v flipped)
+layout(location = 4) in vec3 diffuse;       // colour of the bent-normal diffuse term (thesis B.7)
+layout(location = 5) in vec4 facing_aspect; // fixed facing (away from the viewer) and height/width;
+                                            // zero: a camera-facing billboard
 uniform mat4 view_proj;
 uniform vec3 cam_right;
 uniform vec3 cam_up;
 out vec3 v_uvl;
 out vec4 v_colour;
+out vec3 v_diffuse;
+out vec3 v_bend;
 void main() {
-  bool sheet = layer_tiles.y > 0.0;
-  vec3 ax = sheet ? vec3(1.0, 0.0, 0.0) : cam_right;
-  vec3 ay = sheet ? vec3(0.0, 1.0, 0.0) : cam_up;
-  vec3 p = pos_size.xyz + 0.5 * pos_size.w * (corner.x * ax + corner.y * ay);
+  vec3 ax = cam_right;
+  vec3 ay = cam_up;
+  float aspect = 1.0;
+  if (layer_tiles.y > 0.0) {
+    ax = vec3(1.0, 0.0, 0.0);
+    ay = vec3(0.0, 1.0, 0.0);
+  } else if (dot(facing_aspect.xyz, facing_aspect.xyz) > 0.0) {
+    vec3 f = normalize(facing_aspect.xyz);
+    ax = normalize(cross(f, vec3(0.0, 0.0, 1.0)));
+    ay = cross(ax, f);
+    aspect = facing_aspect.w;
+  }
+  vec3 p = pos_size.xyz + 0.5 * pos_size.w * (corner.x * ax + corner.y * aspect * ay);
   gl_Position = view_proj * vec4(p, 1.0);
   vec2 uv = corner * vec2(0.5, -0.5) + 0.5;
-  v_uvl = vec3(sheet ? uv * layer_tiles.y : uv, layer_tiles.x);
+  if (layer_tiles.y < 0.0) uv.y = 1.0 - uv.y;
+  v_uvl = vec3(layer_tiles.y > 0.0 ? uv * layer_tiles.y : uv, layer_tiles.x);
   v_colour = colour_alpha;
+  v_diffuse = diffuse;
+  v_bend = corner.x * ax + corner.y * ay;  // fragment - billboard centre, in half-sizes
 }
 )";
 const char* fragment_body = R"(
 uniform highp sampler2DArray sprites;
+uniform vec3 sun_dir;    // towards the sun
+uniform vec3 cam_front;
 in vec3 v_uvl;
 in vec4 v_colour;
+in vec3 v_diffuse;
+in vec3 v_bend;
 out vec4 frag;
 void main() {
-  vec4 t = texture(sprites, v_uvl);           // premultiplied
-  frag = vec4(t.rgb * v_colour.rgb, t.a) * v_colour.a;
+  vec4 t = texture(sprites, v_uvl);  // premultiplied
+  vec3 c = v_colour.rgb;
+  if (v_diffuse != vec3(0.0)) {  // sprites only (sheets, impostors and particles have none)
+    // Thesis B.7: the billboard normal, turned to the sun's side of the view, bent outwards by
+    // the fragment's offset from the centre; wrapped diffuse (n.l + 1) / 2.
+    vec3 n = dot(cam_front, sun_dir) < 0.0 ? -cam_front : cam_front;
+    n = normalize(n + 0.5 * v_bend);
+    c = min(c + v_diffuse * (0.5 * (dot(n, sun_dir) + 1.0)), vec3(1.0));
+  }
+  frag = vec4(t.rgb * c, t.a) * v_colour.a;
 }
 )";
 
@@ -133,9 +168,72 @@ struct SpriteRenderer::Impl {
   EGLDisplay dpy = EGL_NO_DISPLAY;
   EGLContext ctx = EGL_NO_CONTEXT;
   GLuint fbo = 0, colour = 0, depth = 0, program = 0, vao = 0, quad = 0, instances = 0, texture = 0;
+  GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1;
   std::vector<std::size_t> order;
+  std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
   std::vector<float> buffer;
+  std::unordered_map<std::uint64_t, glm::vec3> locked;  // facing of sprites the camera is inside
+
+  // Impostor ring (MSFS 2004): two sets of 8 layers of 256x256, the front one drawn, the back
+  // one being rebuilt a sector per frame, then crossfaded.
+  GLuint imp_tex[2] = {0, 0}, imp_fbo = 0;
+  int front = 0;
+  ImpostorRing ring;
+  glm::dvec3 back_centre{0.0};
+  int next_sector = -1;                                // sector of the back set to render this frame; -1: not building
+  int crossfade = -1;                                  // frame of the crossfade; -1: none
+  std::vector<std::uint64_t> captured[2];              // clouds (id, relocations) in each set, sorted
+  std::array<bool, 8> sector_empty[2] = {};            // nothing was rendered into the sector
+  double tan_low[2] = {-1, -1}, tan_high[2] = {1, 1};  // vertical extent of each set's impostors
+  std::uint64_t generation = 0;                        // bumps when the sprite set changes
 };
+
+namespace {
+
+std::uint64_t cloud_key(const SpriteCloud& c) { return (static_cast<std::uint64_t>(c.id) << 32) | c.relocations; }
+
+bool captured_in(const std::vector<std::uint64_t>& set, const SpriteCloud& c) {
+  return std::binary_search(set.begin(), set.end(), cloud_key(c));
+}
+
+// Shading of one sprite (MSFS 2004): five colour levels by height within the cloud (dark base,
+// white top) times a time-of-day ambient factor, plus a directional term per shading group; the
+// bent-normal diffuse term (thesis B.7) is added per fragment.
+struct Shade {
+  glm::dvec3 colour, diffuse;
+};
+Shade shade_sprite(const SpriteCloud& cloud, const Sprite& sprite, const SunLight& sun) {
+  static const glm::dvec3 levels[5] = {
+      {0.45, 0.48, 0.55}, {0.58, 0.61, 0.67}, {0.72, 0.74, 0.78}, {0.86, 0.87, 0.89}, {0.97, 0.97, 0.98}};
+  const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
+  const double h = std::clamp((sprite.offset.z + 300.0) / 1500.0, 0.0, 0.999) * 4;
+  const int lo = static_cast<int>(h);
+  const glm::dvec3 level = levels[lo] + (h - lo) * (levels[std::min(lo + 1, 4)] - levels[lo]);
+  const glm::dvec3 g = glm::dvec3(sprite.offset - cloud.group_centres[static_cast<std::size_t>(sprite.shading_group)]);
+  const double dir = glm::length(g) > 1e-6 ? std::max(0.0, glm::dot(glm::normalize(g), sun.direction)) : 0.0;
+  return {glm::min(glm::dvec3(1.0), 0.85 * ambient * level + 0.3 * dir * sun.colour), 0.25 * sun.colour};
+}
+
+void push_instance(std::vector<float>& b, const glm::dvec3& rel, double size, const glm::dvec3& colour, double alpha,
+                   double layer, double tiles, const glm::dvec3& diffuse, const glm::dvec3& facing, double aspect) {
+  const float v[17] = {static_cast<float>(rel.x),     static_cast<float>(rel.y),     static_cast<float>(rel.z),
+                       static_cast<float>(size),      static_cast<float>(colour.r),  static_cast<float>(colour.g),
+                       static_cast<float>(colour.b),  static_cast<float>(alpha),     static_cast<float>(layer),
+                       static_cast<float>(tiles),     static_cast<float>(diffuse.r), static_cast<float>(diffuse.g),
+                       static_cast<float>(diffuse.b), static_cast<float>(facing.x),  static_cast<float>(facing.y),
+                       static_cast<float>(facing.z),  static_cast<float>(aspect)};
+  b.insert(b.end(), v, v + 17);
+}
+
+double sprite_layer(const SpriteCloud& c, const Sprite& s) {
+  return (c.type == SpriteCloudType::cumulus ? 0 : layers_per_type) + s.texture_layer % layers_per_type;
+}
+
+// Vertical half-angle of an impostor: clouds up to max_vertical_offset above or below, seen
+// from the ring's radius.
+double impostor_half_height(const ImpostorRing& ring) { return std::atan(ring.max_vertical_offset_m / ring.radius_m); }
+
+}  // namespace
 
 std::array<std::uint8_t, 4> SpriteRenderer::sky_colour() { return {110, 160, 225, 255}; }
 
@@ -175,12 +273,20 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   GLint ok = 0;
   glGetProgramiv(m.program, GL_LINK_STATUS, &ok);
   if (!ok) throw IoError("OpenGL ES: shader program does not link");
+  m.u_view_proj = glGetUniformLocation(m.program, "view_proj");
+  m.u_right = glGetUniformLocation(m.program, "cam_right");
+  m.u_up = glGetUniformLocation(m.program, "cam_up");
+  m.u_sprites = glGetUniformLocation(m.program, "sprites");
+  m.u_sun = glGetUniformLocation(m.program, "sun_dir");
+  m.u_front = glGetUniformLocation(m.program, "cam_front");
 
   const auto pixels = bake_sprites(seed);
   glGenTextures(1, &m.texture);
   glBindTexture(GL_TEXTURE_2D_ARRAY, m.texture);
   glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, tex_size, tex_size, texture_layers, 0, GL_RGBA, GL_UNSIGNED_BYTE,
                pixels.data());
+  // No mipmaps: on llvmpipe they cost 25-40 % of the frame (measured), more than the shimmer of
+  // the tiled sheets near the horizon is worth.
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   // Repeat, for the tiled sheets; sprites stay in [0, 1] and fade to zero at their edges.
@@ -197,7 +303,7 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
   glGenBuffers(1, &m.instances);
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
-  constexpr GLsizei stride = 10 * sizeof(float);
+  constexpr GLsizei stride = 17 * sizeof(float);
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, nullptr);
   glVertexAttribDivisor(1, 1);
@@ -207,6 +313,25 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   glEnableVertexAttribArray(3);
   glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(8 * sizeof(float)));
   glVertexAttribDivisor(3, 1);
+  glEnableVertexAttribArray(4);
+  glVertexAttribPointer(4, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(10 * sizeof(float)));
+  glVertexAttribDivisor(4, 1);
+  glEnableVertexAttribArray(5);
+  glVertexAttribPointer(5, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(13 * sizeof(float)));
+  glVertexAttribDivisor(5, 1);
+
+  // Impostor textures: 2 sets x 8 sectors x 256 x 256 RGBA8 (premultiplied), 2 MiB per set.
+  glGenTextures(2, m.imp_tex);
+  for (GLuint t : m.imp_tex) {
+    glBindTexture(GL_TEXTURE_2D_ARRAY, t);
+    glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, impostor_size, impostor_size, 8, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+                 nullptr);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  glGenFramebuffers(1, &m.imp_fbo);
 }
 
 SpriteRenderer::~SpriteRenderer() {
@@ -218,144 +343,316 @@ SpriteRenderer::~SpriteRenderer() {
   }
 }
 
-FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort) {
+void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear) {
   auto& m = *impl_;
-  const auto t0 = std::chrono::steady_clock::now();
-  // Sprites in world space, then (optionally) sorted back to front.
-  std::vector<glm::dvec3> pos;
-  struct Item {
-    const SpriteCloud* cloud;
-    const Sprite* sprite;
-  };
-  std::vector<Item> items;
-  for (const auto& c : field.clouds())
-    for (const auto& s : c.sprites) {
-      pos.push_back(c.centre + glm::dvec3(s.offset));
-      items.push_back({&c, &s});
-    }
-  if (sort || m.order.size() != items.size()) m.order = back_to_front(pos, cam.position);
-  // Shading (MSFS 2004): five colour levels by height within the cloud (dark base, white top),
-  // times a time-of-day ambient factor, plus a directional term per shading group.
-  static const glm::dvec3 levels[5] = {
-      {0.45, 0.48, 0.55}, {0.58, 0.61, 0.67}, {0.72, 0.74, 0.78}, {0.86, 0.87, 0.89}, {0.97, 0.97, 0.98}};
-  const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
-  m.buffer.clear();
-  // Flat layers (altostratus, cirrus, fog) first, farthest altitude first: wide horizontal
-  // sheets centred under/over the camera, drawn behind the sprite clouds.
-  std::vector<const FlatLayer*> flats;
-  for (const auto& l : field.layers()) flats.push_back(&l);
-  std::sort(flats.begin(), flats.end(), [&](const FlatLayer* a, const FlatLayer* b) {
-    return std::abs(a->altitude_m - cam.position.z) > std::abs(b->altitude_m - cam.position.z);
-  });
-  for (const FlatLayer* l : flats) {
-    const bool cirrus = l->type == SpriteCloudType::cirrus, fog = l->type == SpriteCloudType::low_stratus;
-    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = cirrus ? 0.45 : fog ? 0.9 : 0.7;
-    const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
-    const float size = static_cast<float>(2 * l->extent_m);
-    const float v[10] = {0,
-                         0,
-                         static_cast<float>(l->altitude_m - cam.position.z),
-                         size,
-                         static_cast<float>(c.r),
-                         static_cast<float>(c.g),
-                         static_cast<float>(c.b),
-                         static_cast<float>(alpha),
-                         static_cast<float>(sheet_layer),
-                         size / (cirrus ? 6000.0f : 3000.0f)};
-    m.buffer.insert(m.buffer.end(), v, v + 10);
-  }
-  for (std::size_t k : m.order) {
-    const Item& it = items[k];
-    const double h = std::clamp((it.sprite->offset.z + 300.0) / 1500.0, 0.0, 0.999) * 4;
-    const int lo = static_cast<int>(h);
-    const glm::dvec3 level = levels[lo] + (h - lo) * (levels[std::min(lo + 1, 4)] - levels[lo]);
-    const glm::dvec3 g =
-        glm::dvec3(it.sprite->offset - it.cloud->group_centres[static_cast<std::size_t>(it.sprite->shading_group)]);
-    const double dir = glm::length(g) > 1e-6 ? std::max(0.0, glm::dot(glm::normalize(g), sun.direction)) : 0.0;
-    const glm::dvec3 colour = glm::min(glm::dvec3(1.0), ambient * level + 0.35 * dir * sun.colour);
-    const glm::dvec3 rel = pos[k] - cam.position;
-    const float v[10] = {static_cast<float>(rel.x),
-                         static_cast<float>(rel.y),
-                         static_cast<float>(rel.z),
-                         it.sprite->size_m,
-                         static_cast<float>(colour.r),
-                         static_cast<float>(colour.g),
-                         static_cast<float>(colour.b),
-                         1.0f,
-                         static_cast<float>((it.cloud->type == SpriteCloudType::cumulus ? 0 : layers_per_type) +
-                                            it.sprite->texture_layer % layers_per_type),
-                         0.0f};  // camera-facing sprite (no tiling)
-    m.buffer.insert(m.buffer.end(), v, v + 10);
-  }
-  submit(items.size() + flats.size(), cam);
-  FrameStats s;
-  s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  s.sprites = items.size();
-  return s;
-}
-
-void SpriteRenderer::submit(std::size_t instances, const Camera& cam) {
-  auto& m = *impl_;
+  const Camera& cam = target.camera;
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
   const glm::dvec3 f = glm::normalize(cam.forward), r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
-  const double t = std::tan(0.5 * cam.fov_deg * M_PI / 180), a = static_cast<double>(w_) / h_, zn = 10, zf = cam.far_m;
+  const double tlo = target.tan_y_low, thi = target.tan_y_high, tx = target.tan_half_x, zn = 10, zf = cam.far_m;
   glm::mat4 view(1.0f), proj(0.0f);
   for (int i = 0; i < 3; ++i) {
     view[i][0] = static_cast<float>(r[i]);
     view[i][1] = static_cast<float>(u[i]);
     view[i][2] = static_cast<float>(-f[i]);
   }
-  proj[0][0] = static_cast<float>(1 / (a * t));
-  proj[1][1] = static_cast<float>(1 / t);
+  proj[0][0] = static_cast<float>(1 / tx);
+  proj[1][1] = static_cast<float>(2 / (thi - tlo));
+  proj[2][1] = static_cast<float>((thi + tlo) / (thi - tlo));  // off-centre (impostors look up or down)
   proj[2][2] = static_cast<float>(-(zf + zn) / (zf - zn));
   proj[2][3] = -1;
   proj[3][2] = static_cast<float>(-2 * zf * zn / (zf - zn));
   const glm::mat4 vp = proj * view;
 
-  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
-  glViewport(0, 0, w_, h_);
-  const auto sky = sky_colour();
-  glClearColor(sky[0] / 255.0f, sky[1] / 255.0f, sky[2] / 255.0f, 1);
-  glClear(GL_COLOR_BUFFER_BIT);
+  glBindFramebuffer(GL_FRAMEBUFFER, target.fbo);
+  glViewport(0, 0, target.width, target.height);
+  if (clear) {
+    glClearColor(target.clear[0], target.clear[1], target.clear[2], target.clear[3]);
+    glClear(GL_COLOR_BUFFER_BIT);
+  }
+  if (count == 0) return;
   glEnable(GL_BLEND);
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // premultiplied alpha
   glUseProgram(m.program);
-  glUniformMatrix4fv(glGetUniformLocation(m.program, "view_proj"), 1, GL_FALSE, &vp[0][0]);
-  glUniform3f(glGetUniformLocation(m.program, "cam_right"), static_cast<float>(r.x), static_cast<float>(r.y),
-              static_cast<float>(r.z));
-  glUniform3f(glGetUniformLocation(m.program, "cam_up"), static_cast<float>(u.x), static_cast<float>(u.y),
-              static_cast<float>(u.z));
-  glUniform1i(glGetUniformLocation(m.program, "sprites"), 0);
+  glUniformMatrix4fv(m.u_view_proj, 1, GL_FALSE, &vp[0][0]);
+  glUniform3f(m.u_right, static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z));
+  glUniform3f(m.u_up, static_cast<float>(u.x), static_cast<float>(u.y), static_cast<float>(u.z));
+  glUniform3f(m.u_front, static_cast<float>(f.x), static_cast<float>(f.y), static_cast<float>(f.z));
+  glUniform3f(m.u_sun, static_cast<float>(target.sun.x), static_cast<float>(target.sun.y),
+              static_cast<float>(target.sun.z));
+  glUniform1i(m.u_sprites, 0);
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D_ARRAY, m.texture);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
   glBindVertexArray(m.vao);
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m.buffer.size() * sizeof(float)), m.buffer.data(),
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(count * 17 * sizeof(float)), m.buffer.data() + first * 17,
                GL_STREAM_DRAW);
-  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(instances));  // one draw call
+  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(count));  // one draw call
+}
+
+SpriteRenderer::Target SpriteRenderer::screen(const Camera& cam, const SunLight& sun) const {
+  Target t;
+  t.camera = cam;
+  t.fbo = impl_->fbo;
+  t.width = w_, t.height = h_;
+  t.tan_y_high = std::tan(0.5 * cam.fov_deg * M_PI / 180);
+  t.tan_y_low = -t.tan_y_high;
+  t.tan_half_x = t.tan_y_high * w_ / h_;
+  const auto sky = sky_colour();
+  t.clear = {sky[0] / 255.0f, sky[1] / 255.0f, sky[2] / 255.0f, 1.0f};
+  t.sun = sun.direction;
+  return t;
+}
+
+void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field,
+                                     const SunLight& sun, const Camera& cam) {
+  auto& m = *impl_;
+  const double a = sector * M_PI / 4;  // 0 = east, counter-clockwise (ImpostorRing::sector)
+  Target t;
+  t.camera.position = centre;
+  t.camera.forward = {std::cos(a), std::sin(a), 0};
+  t.camera.up = {0, 0, 1};
+  t.camera.far_m = cam.far_m;
+  t.fbo = m.imp_fbo;
+  t.width = t.height = impostor_size;
+  t.tan_half_x = std::tan(M_PI / 8);
+  t.tan_y_low = m.tan_low[set];
+  t.tan_y_high = m.tan_high[set];
+  t.clear = {0, 0, 0, 0};
+  t.sun = sun.direction;
+  glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
+  glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, m.imp_tex[set], 0, sector);
+  // The captured clouds that overlap this 45-degree sector, back to front from the ring centre.
+  std::vector<glm::dvec3> pos;
+  std::vector<std::pair<const SpriteCloud*, const Sprite*>> items;
+  for (const auto& c : field.clouds()) {
+    if (!captured_in(m.captured[set], c)) continue;
+    const glm::dvec2 d{c.centre.x - centre.x, c.centre.y - centre.y};
+    const double dist = glm::length(d);
+    double off = std::fmod(std::abs(std::atan2(d.y, d.x) - a), 2 * M_PI);
+    off = std::min(off, 2 * M_PI - off);  // angle to the sector's axis
+    if (off > M_PI / 8 + std::asin(std::min(1.0, c.radius_m / std::max(dist, 1.0)))) continue;
+    for (const auto& s : c.sprites) {
+      pos.push_back(c.centre + glm::dvec3(s.offset));
+      items.push_back({&c, &s});
+    }
+  }
+  const auto order = back_to_front(pos, centre);
+  m.sector_empty[set][static_cast<std::size_t>(sector)] = order.empty();
+  m.buffer.clear();
+  for (std::size_t k : order) {
+    const Shade sh = shade_sprite(*items[k].first, *items[k].second, sun);
+    push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, 1.0,
+                  sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
+  }
+  submit(t, 0, order.size(), m.texture, true);
+}
+
+FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort,
+                                bool impostors) {
+  auto& m = *impl_;
+  const auto t0 = std::chrono::steady_clock::now();
+  FrameStats stats;
+  // The clouds an impostor set holds, and the vertical extent of its images: MSFS 2004 moves the
+  // impostors up or down to where the clouds are; nephos fits an off-centre frustum to them
+  // (within the +-10,000 ft rule's angle), so their texels and fill cover clouds, not sky.
+  auto capture = [&](int set, const glm::dvec3& centre) {
+    std::vector<std::uint64_t> ids;
+    double lo = 1e9, hi = -1e9;
+    for (const auto& c : field.clouds()) {  // forming or dissipating clouds stay sprites
+      if (c.fading() || c.opacity != 1 || !m.ring.in_impostor(c.centre, c.radius_m, centre)) continue;
+      ids.push_back(cloud_key(c));
+      double z_lo = 1e9, z_hi = -1e9;  // the cloud's vertical extent from its sprites
+      for (const auto& sp : c.sprites) {
+        z_lo = std::min(z_lo, c.centre.z + sp.offset.z - 0.5 * sp.size_m);
+        z_hi = std::max(z_hi, c.centre.z + sp.offset.z + 0.5 * sp.size_m);
+      }
+      const double dh = glm::length(glm::dvec2(c.centre - centre)) - c.radius_m;  // > ring radius
+      lo = std::min(lo, (z_lo - centre.z) / dh);
+      hi = std::max(hi, (z_hi - centre.z) / dh);
+    }
+    std::sort(ids.begin(), ids.end());
+    m.captured[set] = std::move(ids);
+    const double limit = std::tan(impostor_half_height(m.ring));
+    m.tan_low[set] = hi > lo ? std::max(-limit, lo - 0.02) : -limit;
+    m.tan_high[set] = hi > lo ? std::min(limit, hi + 0.02) : limit;
+  };
+  // ---- Impostor ring upkeep: at most one sector rendered per frame once the ring exists.
+  double back_weight = 0;  // crossfade weight of the back set
+  if (!impostors) {
+    if (m.ring.valid) ++m.generation;
+    m.ring.valid = false;
+    m.next_sector = m.crossfade = -1;
+  } else if (!m.ring.valid) {  // first frame: the whole front set at once
+    m.ring.centre = cam.position;
+    capture(m.front, cam.position);
+    for (int k = 0; k < 8; ++k) render_impostor(m.front, k, cam.position, field, sun, cam);
+    stats.impostor_updates = 8;
+    m.ring.rebuilt_at(cam.position);
+    ++m.generation;
+  } else {
+    const int back = 1 - m.front;
+    if (m.next_sector < 0 && m.crossfade < 0 && m.ring.needs_update(cam.position)) {
+      m.back_centre = cam.position;
+      capture(back, cam.position);
+      m.next_sector = 0;
+    }
+    if (m.next_sector >= 0) {
+      render_impostor(back, m.next_sector, m.back_centre, field, sun, cam);
+      stats.impostor_updates = 1;
+      if (++m.next_sector == 8) m.next_sector = -1, m.crossfade = 0;
+    } else if (m.crossfade >= 0) {
+      back_weight = (m.crossfade + 1.0) / (crossfade_frames + 1.0);
+      ++m.generation;
+      if (++m.crossfade > crossfade_frames) {  // the new set takes over
+        m.front = back;
+        m.ring.rebuilt_at(m.back_centre);
+        m.crossfade = -1;
+        back_weight = 0;
+      }
+    }
+  }
+  const int back = 1 - m.front;
+  const bool fading_sets = back_weight > 0;
+
+  // ---- Instances: the ring's quads first (their own texture), then flat layers and sprites.
+  m.buffer.clear();
+  // Each impostor is a quad on its sector's image plane at the ring radius, facing the ring's
+  // centre, so that from the centre it shows exactly what was rendered into it.
+  std::size_t ring_quads[2] = {0, 0};  // front set, back set
+  if (impostors && m.ring.valid) {
+    const double w = 2 * m.ring.radius_m * std::tan(M_PI / 8);
+    for (int which = 0; which < 2; ++which) {
+      const double weight = which == 0 ? 1 - back_weight : back_weight;
+      if (weight <= 0) continue;
+      const int set = which == 0 ? m.front : back;
+      const glm::dvec3 centre = which == 0 ? m.ring.centre : m.back_centre;
+      const double aspect = (m.tan_high[set] - m.tan_low[set]) / (2 * std::tan(M_PI / 8));
+      const double lift = 0.5 * (m.tan_high[set] + m.tan_low[set]) * m.ring.radius_m;
+      for (int k = 0; k < 8; ++k) {
+        if (m.sector_empty[set][static_cast<std::size_t>(k)]) continue;  // no fill for empty sky
+        const double a = k * M_PI / 4;
+        const glm::dvec3 d{std::cos(a), std::sin(a), 0};
+        push_instance(m.buffer, centre + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
+                      glm::dvec3(1.0), weight, k, -1.0, glm::dvec3(0.0), d, aspect);
+        ++ring_quads[which];
+      }
+    }
+  }
+  // Flat layers (altostratus, cirrus, fog), farthest altitude first: wide horizontal sheets
+  // centred under/over the camera, drawn behind the sprite clouds.
+  std::vector<const FlatLayer*> flats;
+  for (const auto& l : field.layers()) flats.push_back(&l);
+  std::sort(flats.begin(), flats.end(), [&](const FlatLayer* a, const FlatLayer* b) {
+    return std::abs(a->altitude_m - cam.position.z) > std::abs(b->altitude_m - cam.position.z);
+  });
+  const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
+  for (const FlatLayer* l : flats) {
+    const bool cirrus = l->type == SpriteCloudType::cirrus, fog = l->type == SpriteCloudType::low_stratus;
+    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = (cirrus ? 0.45 : fog ? 0.9 : 0.7) * l->opacity;
+    const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
+    const double size = 2 * l->extent_m;
+    push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer,
+                  size / (cirrus ? 6000.0 : 3000.0), glm::dvec3(0.0), glm::dvec3(0.0), 1.0);
+  }
+  // Sprites of the clouds not in an impostor; during a crossfade a cloud in only one set is
+  // also drawn as sprites, fading against that set.
+  std::vector<glm::dvec3> pos;
+  struct Item {
+    const SpriteCloud* cloud;
+    const Sprite* sprite;
+    std::uint32_t index;
+    double alpha;
+  };
+  std::vector<Item> items;
+  for (const auto& c : field.clouds()) {
+    double alpha = c.opacity;
+    if (impostors && m.ring.valid) {
+      const bool in_front = captured_in(m.captured[m.front], c);
+      const bool in_back = fading_sets && captured_in(m.captured[back], c);
+      if (!fading_sets && in_front) continue;
+      if (fading_sets) {
+        if (in_front && in_back) continue;
+        if (in_front) alpha *= back_weight;
+        if (in_back) alpha *= 1 - back_weight;
+      }
+    }
+    if (alpha <= 0) continue;
+    for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
+      pos.push_back(c.centre + glm::dvec3(c.sprites[k].offset));
+      items.push_back({&c, &c.sprites[k], k, alpha});
+    }
+  }
+  if (sort || m.order.size() != items.size() || m.order_generation != m.generation) {
+    m.order = back_to_front(pos, cam.position);
+    m.order_generation = m.generation;
+  }
+  // Facing lock (MSFS 2004): a sprite the camera is within half its radius of keeps the
+  // orientation it had when the camera came that close, instead of spinning around the camera.
+  std::unordered_map<std::uint64_t, glm::vec3> locked;
+  const glm::dvec3 front = glm::normalize(cam.forward);
+  for (std::size_t k : m.order) {
+    const Item& it = items[k];
+    const Shade sh = shade_sprite(*it.cloud, *it.sprite, sun);
+    const glm::dvec3 rel = pos[k] - cam.position;
+    glm::dvec3 facing(0.0);
+    if (glm::length(rel) < 0.25 * it.sprite->size_m) {
+      const std::uint64_t key = (static_cast<std::uint64_t>(it.cloud->id) << 20) | it.index;
+      const auto old = m.locked.find(key);
+      const glm::vec3 f = old != m.locked.end() ? old->second : glm::vec3(front);
+      locked.emplace(key, f);
+      facing = glm::dvec3(f);
+    }
+    push_instance(m.buffer, rel, it.sprite->size_m, sh.colour, it.alpha, sprite_layer(*it.cloud, *it.sprite), 0.0,
+                  sh.diffuse, facing, 1.0);
+  }
+  m.locked = std::move(locked);
+  stats.locked_sprites = m.locked.size();
+
+  // Draws: the sky and the ring (one per impostor set: each set is its own texture array), then
+  // every flat layer and sprite in one instanced call.
+  const Target target = screen(cam, sun);
+  const std::size_t rings = ring_quads[0] + ring_quads[1];
+  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true);
+  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false);
+  submit(target, rings, m.buffer.size() / 17 - rings, m.texture, false);
   glFinish();
+  stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  stats.sprites = items.size();
+  return stats;
 }
 
 FrameStats SpriteRenderer::draw_points(const PointSprites& sp, const Camera& cam) {
   auto& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = sp.size();
-  m.buffer.resize(10 * n);
+  m.buffer.resize(17 * n);
   float* b = m.buffer.data();
   const auto cx = static_cast<float>(cam.position.x), cy = static_cast<float>(cam.position.y),
              cz = static_cast<float>(cam.position.z);
   const float layer = static_cast<float>(particle_layer);
-  for (std::size_t i = 0; i < n; ++i, b += 10) {
+  for (std::size_t i = 0; i < n; ++i, b += 17) {
     b[0] = sp.x[i] - cx, b[1] = sp.y[i] - cy, b[2] = sp.z[i] - cz, b[3] = sp.size_m[i];
     b[4] = b[5] = b[6] = sp.grey[i];
     b[7] = sp.alpha[i];
-    b[8] = layer, b[9] = 0;
+    b[8] = layer;
+    std::fill(b + 9, b + 17, 0.0f);
+    b[16] = 1;
   }
-  submit(n, cam);
+  SunLight none{{0, 0, 1}, {0, 0, 0}, 90};
+  submit(screen(cam, none), 0, n, impl_->texture, true);
+  glFinish();
   FrameStats s;
   s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.sprites = n;
   return s;
+}
+
+const ImpostorRing& SpriteRenderer::impostor_ring() const { return impl_->ring; }
+
+void SpriteRenderer::set_impostor_radius(double radius_m) {
+  if (!(radius_m > 0)) throw ValueError("the impostor ring radius must be > 0 m", {.key = "impostor_radius_m"});
+  impl_->ring.radius_m = radius_m;
+  impl_->ring.valid = false;
 }
 
 std::vector<std::uint8_t> SpriteRenderer::read_pixels() const {

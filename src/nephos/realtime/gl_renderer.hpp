@@ -4,6 +4,7 @@
 // camera-facing quads from a texture array baked from nephos's own 3D fractal density, sorted
 // back to front, premultiplied-alpha blended, shaded on the CPU per sprite (MSFS 2004: five
 // height colour levels, a directional term per shading group, a time-of-day ambient factor).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -32,8 +33,10 @@ struct PointSprites {
 };
 
 struct FrameStats {
-  double milliseconds = 0;  ///< CPU time around the frame including glFinish
-  std::size_t sprites = 0;
+  double milliseconds = 0;         ///< CPU time around the frame including glFinish
+  std::size_t sprites = 0;         ///< sprites drawn individually (not through impostors)
+  int impostor_updates = 0;        ///< impostor textures re-rendered this frame (8 on the first frame)
+  std::size_t locked_sprites = 0;  ///< sprites whose facing is locked (camera inside them)
 };
 
 class SpriteRenderer {
@@ -45,8 +48,15 @@ class SpriteRenderer {
   SpriteRenderer(const SpriteRenderer&) = delete;
   SpriteRenderer& operator=(const SpriteRenderer&) = delete;
 
-  /// Draws the field's sprite clouds; `sort` re-sorts back to front (else the previous order).
-  FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort);
+  /// Draws the field's clouds; `sort` re-sorts back to front (else the previous order, unless
+  /// the set of sprites changed). With `impostors`, clouds beyond the ring radius are drawn
+  /// through the octagonal impostor ring of MSFS 2004 (see ImpostorRing): eight 256 x 256
+  /// textures around the camera, rebuilt one per frame when the camera has moved past the
+  /// thresholds, then crossfaded over 8 frames.
+  FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort, bool impostors = true);
+  /// The impostor ring's parameters and state (radius, thresholds; valid after a draw).
+  const ImpostorRing& impostor_ring() const;
+  void set_impostor_radius(double radius_m);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// RGBA8 pixels of the last frame, rows from the top.
@@ -58,8 +68,22 @@ class SpriteRenderer {
 
  private:
   struct Impl;
-  /// Uploads the instance buffer and draws `instances` quads with the camera's matrices.
-  void submit(std::size_t instances, const Camera& camera);
+  /// Where and how a pass draws: a camera with its own frustum into a framebuffer.
+  struct Target {
+    Camera camera;
+    unsigned fbo = 0;
+    int width = 0, height = 0;
+    double tan_half_x = 1;
+    double tan_y_low = -1, tan_y_high = 1;  ///< vertical extent of the frustum (asymmetric for impostors)
+    std::array<float, 4> clear{};
+    glm::dvec3 sun{0, 0, 1};
+  };
+  Target screen(const Camera& camera, const SunLight& sun) const;
+  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
+  void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear);
+  /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
+  void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
+                       const Camera& camera);
   std::unique_ptr<Impl> impl_;
   int w_, h_;
 };
