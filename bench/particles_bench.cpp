@@ -24,10 +24,10 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 int run_particles_bench(const ParticlesBenchOptions& o, std::uint64_t seed) {
   const auto grid = weather::open_weather(std::string(NEPHOS_DATA_DIR) + "/gfs_20110110_12z_f120_2p5deg.grib2");
-  const particles::ParticleWeather coarse =
-      particles::from_weather_grids({grid}, particles::LatLonRegion{30, -50, 65, 10});
+  const particles::ParticleWeather coarse = particles::from_weather_grids({grid}, particles::default_gfs_region);
   // As `nephos particles` does by default: cells split to <= 30 km.
-  const particles::ParticleWeather pw = particles::refine(coarse, particles::refine_factor_for(coarse.grid, 30000));
+  const particles::ParticleWeather pw =
+      particles::refine(coarse, particles::refine_factor_for(coarse.grid, particles::default_refined_cell_m));
   realtime::SpriteRenderer renderer(o.width, o.height, seed);
   std::cout << fmt::format(
       "nephos bench particles: embedded GFS sample, region 30N-65N 50W-10E refined to {} x {} columns, {} threads, "

@@ -396,6 +396,15 @@ struct FlyOptions {
   std::string out = "out/fly";
 };
 
+/// The renderer's last frame as an RGB PNG (the sky is opaque, so alpha carries nothing).
+void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& renderer) {
+  const auto rgba = renderer.read_pixels();
+  const std::size_t n = static_cast<std::size_t>(renderer.width()) * static_cast<std::size_t>(renderer.height());
+  std::vector<std::uint8_t> rgb(3 * n);
+  for (std::size_t i = 0; i < n; ++i) std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
+  io::write_png(path, renderer.width(), renderer.height(), 3, rgb);
+}
+
 int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
@@ -452,11 +461,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     const realtime::FrameStats st = renderer.draw(field, cam, sun, sort, !o.no_impostors);
     total_ms += st.milliseconds;
     table << fmt::format("{},{:.3f},{},{}\n", f, st.milliseconds, st.sprites, st.impostor_updates);
-    const auto rgba = renderer.read_pixels();
-    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(width) * height * 3);
-    for (std::size_t i = 0, n = static_cast<std::size_t>(width) * height; i < n; ++i)
-      std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
-    io::write_png(out / fmt::format("frame_{:04d}.png", f), width, height, 3, rgb);
+    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer);
     progress.advance();
   }
   table.close();
@@ -485,8 +490,6 @@ struct ParticlesOptions {
   std::string out = "out/particles";
 };
 
-constexpr const char* default_gfs_particle_region = "30,-50,65,10";
-
 int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
@@ -502,9 +505,11 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
     if (o.weather.empty()) grids.push_back(weather::open_weather(default_weather()));
     for (const auto& f : o.weather) grids.push_back(weather::open_weather(f));
     pw = particles::from_weather_grids(
-        grids, particles::LatLonRegion::parse(o.region.empty() ? default_gfs_particle_region : o.region, "--region"));
+        grids, o.region.empty() ? particles::default_gfs_region : particles::LatLonRegion::parse(o.region, "--region"));
   }
-  const int factor = o.refine > 0 ? o.refine : o.wrf.empty() ? particles::refine_factor_for(pw.grid, 30000) : 1;
+  const int factor = o.refine > 0    ? o.refine
+                     : o.wrf.empty() ? particles::refine_factor_for(pw.grid, particles::default_refined_cell_m)
+                                     : 1;
   if (o.refine < 0) throw ValueError("must be >= 0", {.key = "--refine"});
   if (factor > 1) pw = particles::refine(pw, factor);
   particles::SceneParams sp;
@@ -557,11 +562,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
     table << fmt::format("{},{},{:.0f},{},{},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f}\n", f, scene.time_at(t).iso(), t,
                          scene.current().size(), tm.drawn, motion_ms, tm.lod_ms, tm.light_ms, tm.sort_ms,
                          st.milliseconds);
-    const auto rgba = renderer.read_pixels();
-    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(width) * height * 3);
-    for (std::size_t i = 0, n = static_cast<std::size_t>(width) * height; i < n; ++i)
-      std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
-    io::write_png(out / fmt::format("frame_{:04d}.png", f), width, height, 3, rgb);
+    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer);
     if (!o.no_ply)
       particles::write_particles_ply(out / fmt::format("particles_{:04d}.ply", f), scene.current(), scene.shade_all(t),
                                      w, scene.time_at(t));

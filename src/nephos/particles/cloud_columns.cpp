@@ -35,6 +35,24 @@ float CloudColumns::sigma_per_m(std::size_t c) const {
   return tau[c] > 0 && depth > 0 ? tau[c] / depth : 0.0f;
 }
 
+void WeatherFrame::allocate(std::size_t n, int levels) {
+  columns.base_m.assign(n, nan_f);
+  columns.top_m.assign(n, nan_f);
+  columns.tau.assign(n, 0.0f);
+  wind.levels = levels;
+  for (auto* a : {&wind.z_m, &wind.u, &wind.v, &wind.w}) a->assign(static_cast<std::size_t>(levels) * n, 0.0f);
+}
+
+void LayerColumn::resize(std::size_t layers) {
+  for (auto* v : {&z_lower_m, &z_upper_m, &air_density, &q_liquid, &q_ice}) v->resize(layers);
+}
+
+void store(CloudColumns& columns, std::size_t c, const ColumnCloud& cloud) {
+  columns.base_m[c] = cloud.base_m;
+  columns.top_m[c] = cloud.top_m;
+  columns.tau[c] = cloud.tau;
+}
+
 glm::dvec3 WindVolume::sample(const PlanarGrid& g, double x_m, double y_m, double z) const {
   const double fc = std::clamp((x_m - g.x0_m) / g.dx_m, 0.0, static_cast<double>(g.cols - 1));
   const double fr = std::clamp((y_m - g.y0_m) / g.dy_m, 0.0, static_cast<double>(g.rows - 1));
@@ -124,12 +142,8 @@ ParticleWeather refine(const ParticleWeather& w, int factor) {
     WeatherFrame nf;
     nf.time_s = f.time_s;
     nf.valid_time = f.valid_time;
-    nf.columns.tau.resize(rplane);
-    nf.columns.base_m.resize(rplane);
-    nf.columns.top_m.resize(rplane);
-    nf.wind.levels = f.wind.levels;
+    nf.allocate(rplane, f.wind.levels);
     const std::size_t nl = static_cast<std::size_t>(f.wind.levels);
-    for (auto* a : {&nf.wind.z_m, &nf.wind.u, &nf.wind.v, &nf.wind.w}) a->resize(nl * rplane);
     for (std::size_t n = 0; n < rplane; ++n) {
       const Stencil& s = st[n];
       double tau = 0, base = 0, top = 0, wc = 0;
@@ -141,10 +155,8 @@ ParticleWeather refine(const ParticleWeather& w, int factor) {
           wc += s.w[q];
         }
       }
-      const bool cloudy = tau > 0 && wc > 0;
-      nf.columns.tau[n] = cloudy ? static_cast<float>(tau) : 0.0f;
-      nf.columns.base_m[n] = cloudy ? static_cast<float>(base / wc) : nan_f;
-      nf.columns.top_m[n] = cloudy ? static_cast<float>(top / wc) : nan_f;
+      if (tau > 0 && wc > 0)
+        store(nf.columns, n, {static_cast<float>(base / wc), static_cast<float>(top / wc), static_cast<float>(tau)});
       for (std::size_t k = 0; k < nl; ++k) {
         double z = 0, u = 0, v = 0, ww = 0;
         for (int q = 0; q < 4; ++q) {
@@ -210,7 +222,6 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
     if (g.lat(j) >= region.lat0_deg - 1e-9 && g.lat(j) <= region.lat1_deg + 1e-9) rows.push_back(j);
   double span = std::fmod(region.lon1_deg - region.lon0_deg + 720.0, 360.0);
   if (span == 0 && region.lon1_deg != region.lon0_deg) span = 360;
-  double first_lon = 0;
   for (int n = 0; n < g.nlon; ++n) {
     const double off = std::fmod(g.lon(n) - region.lon0_deg + 720.0, 360.0);
     if (off <= span + 1e-9) cols.push_back(n);
@@ -223,7 +234,7 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
     throw ValueError("the region holds " + std::to_string(cols.size()) + " x " + std::to_string(rows.size()) +
                          " grid columns of " + g.describe() + "; at least 2 x 2 are needed",
                      {.key = "--region"});
-  if (!cols.empty()) first_lon = region.lon0_deg + std::fmod(g.lon(cols.front()) - region.lon0_deg + 720.0, 360.0);
+  const double first_lon = region.lon0_deg + std::fmod(g.lon(cols.front()) - region.lon0_deg + 720.0, 360.0);
 
   ParticleWeather pw;
   PlanarGrid& pg = pw.grid;
@@ -267,22 +278,15 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
     fr.valid_time = w.metadata().valid_time;
     fr.time_s = static_cast<double>(fr.valid_time.unix_s - t0.unix_s);
     const std::size_t plane = pg.size(), nl = levels.size();
-    fr.columns.base_m.assign(plane, nan_f);
-    fr.columns.top_m.assign(plane, nan_f);
-    fr.columns.tau.assign(plane, 0.0f);
-    fr.wind.levels = static_cast<int>(nl);
-    fr.wind.z_m.resize(nl * plane);
-    fr.wind.u.resize(nl * plane);
-    fr.wind.v.resize(nl * plane);
-    fr.wind.w.resize(nl * plane);
+    fr.allocate(plane, static_cast<int>(nl));
     const auto& p_pa = w.pressure_levels_pa();
     LayerColumn col;
-    for (auto* v : {&col.z_lower_m, &col.z_upper_m, &col.air_density, &col.q_liquid, &col.q_ice}) v->resize(nl);
+    col.resize(nl);
+    std::vector<double> z(nl);
     for (int rj = 0; rj < pg.rows; ++rj)
       for (int ci = 0; ci < pg.cols; ++ci) {
         const int j = rows[static_cast<std::size_t>(rj)], i = cols[static_cast<std::size_t>(ci)];
         const std::size_t c = static_cast<std::size_t>(rj) * pg.cols + static_cast<std::size_t>(ci);
-        std::vector<double> z(nl);
         for (std::size_t m = 0; m < nl; ++m) z[m] = w.value(Field::geopotential_height, levels[m], j, i);
         for (std::size_t m = 0; m < nl; ++m) {
           const int k = levels[m];
@@ -304,10 +308,7 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
           // omega [Pa/s] -> w [m/s] by hydrostatic balance: w = -omega / (rho g).
           fr.wind.w[a] = has_omega ? static_cast<float>(-w.value(Field::omega, k, j, i) / (rho * g0)) : 0.0f;
         }
-        const ColumnCloud cc = column_cloud(col, params);
-        fr.columns.base_m[c] = cc.base_m;
-        fr.columns.top_m[c] = cc.top_m;
-        fr.columns.tau[c] = cc.tau;
+        store(fr.columns, c, column_cloud(col, params));
       }
     pw.frames.push_back(std::move(fr));
   }

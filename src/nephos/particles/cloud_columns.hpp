@@ -66,6 +66,8 @@ struct WeatherFrame {
   UtcTime valid_time;
   CloudColumns columns;
   WindVolume wind;
+  /// Sizes the fields for `columns` columns and `levels` wind levels; every column clear.
+  void allocate(std::size_t columns, int levels);
 };
 
 /// Everything the particle system reads: a planar grid and its frames, ascending in time.
@@ -92,6 +94,11 @@ struct LatLonRegion {
   static LatLonRegion parse(const std::string& text, const std::string& key);
 };
 
+/// What `nephos particles` and its benchmark use on GFS when not told otherwise: the North
+/// Atlantic and Europe (fronts in the embedded sample), cells refined to at most 30 km.
+inline constexpr LatLonRegion default_gfs_region{30, -50, 65, 10};
+inline constexpr double default_refined_cell_m = 30000;
+
 /// Liquid or ice optical thickness of a layer (eq. 2 with Gamma = 2 and the effective radius
 /// r_e = <r^3>/<r^2>): tau = 3 * rho_air * q * dz / (2 * rho_condensate * r_e).
 double layer_optical_thickness(double air_density_kg_m3, double mixing_ratio_kg_kg, double thickness_m,
@@ -101,6 +108,7 @@ double layer_optical_thickness(double air_density_kg_m3, double mixing_ratio_kg_
 /// density [kg/m^3] and liquid / ice mixing ratios [kg/kg].
 struct LayerColumn {
   std::vector<double> z_lower_m, z_upper_m, air_density, q_liquid, q_ice;
+  void resize(std::size_t layers);
 };
 struct ColumnCloud {
   float base_m, top_m, tau;  ///< NaN, NaN, 0 when no layer is cloudy
@@ -108,6 +116,8 @@ struct ColumnCloud {
 /// Cloud base (lower interface of the lowest cloudy layer), top (upper interface of the highest)
 /// and total optical thickness (liquid + ice, eq. 2) of one column.
 ColumnCloud column_cloud(const LayerColumn& c, const ColumnParams& p);
+/// Stores column_cloud's result for column c of `columns`.
+void store(CloudColumns& columns, std::size_t c, const ColumnCloud& cloud);
 
 inline constexpr double rho_liquid_water = 1000.0;  ///< [kg/m^3]
 inline constexpr double rho_ice = 917.0;            ///< [kg/m^3] (hexagonal ice at 0 C)

@@ -219,13 +219,9 @@ ParticleWeather read_wrf(const std::filesystem::path& path, const std::optional<
     WeatherFrame fr;
     fr.valid_time = parse_wrf_time(time_strings[t], f.path());
     fr.time_s = static_cast<double>(fr.valid_time.unix_s - t0.unix_s);
-    fr.columns.base_m.resize(plane);
-    fr.columns.top_m.resize(plane);
-    fr.columns.tau.resize(plane);
-    fr.wind.levels = static_cast<int>(nz);
-    for (auto* a : {&fr.wind.z_m, &fr.wind.u, &fr.wind.v, &fr.wind.w}) a->resize(nz * plane);
+    fr.allocate(plane, static_cast<int>(nz));
     LayerColumn col;
-    for (auto* a : {&col.z_lower_m, &col.z_upper_m, &col.air_density, &col.q_liquid, &col.q_ice}) a->resize(nz);
+    col.resize(nz);
     for (std::size_t j = j0; j <= j1; ++j)
       for (std::size_t i = i0; i <= i1; ++i) {
         const std::size_t c = (j - j0) * static_cast<std::size_t>(g.cols) + (i - i0);
@@ -245,10 +241,7 @@ ParticleWeather read_wrf(const std::filesystem::path& path, const std::optional<
           fr.wind.v[a] = 0.5f * (v[(k * nys + j) * nx + i] + v[(k * nys + j + 1) * nx + i]);
           fr.wind.w[a] = 0.5f * (w[s0] + w[s1]);
         }
-        const ColumnCloud cl = column_cloud(col, params);
-        fr.columns.base_m[c] = cl.base_m;
-        fr.columns.top_m[c] = cl.top_m;
-        fr.columns.tau[c] = cl.tau;
+        store(fr.columns, c, column_cloud(col, params));
       }
     pw.frames.push_back(std::move(fr));
   }
