@@ -162,28 +162,34 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
 }
 
 void CloudShell::build_skip_map() {
-  // 64 x 64 texels per face (~1.4 deg); each holds the maximum of the displaced mask over a
-  // 5 x 5 set of directions spanning its own texel grown by one texel on every side, so a
-  // lookup anywhere in the texel bounds the mask within one texel width (~150 km) around it.
-  constexpr int n = 64, k = 5;
+  // n x n texels per face (~0.35 deg, ~39 km at n = 256); each holds the maximum of the
+  // displaced mask over its own texel grown by one texel on every side, taken over a lattice of
+  // half-texel spacing (7 x 7 points per texel, the lattice shared between texels), so a
+  // lookup anywhere in the texel bounds the mask within one texel width around it. The mask
+  // itself is bilinear on a ~20 km cube map of the 0.25 deg GFS grid: half-texel sampling
+  // resolves it.
+  constexpr int n = 256, m = 2 * n + 5;  // lattice points per face edge: u = (l - 2) / n - 1
   mask_max_ = CubeMap<float>(n);
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
+  std::vector<float> lattice(static_cast<std::size_t>(m) * m);
+  for (int f = 0; f < 6; ++f) {
+#pragma omp parallel for schedule(static)
+    for (int b = 0; b < m; ++b)
+      for (int a = 0; a < m; ++a) {
+        earth::Vec3 d{0, 0, 0};
+        d[f / 2] = f % 2 ? -1.0 : 1.0;
+        d[(f / 2 + 1) % 3] = (a - 2.0) / n - 1.0;
+        d[(f / 2 + 2) % 3] = (b - 2.0) / n - 1.0;
+        lattice[static_cast<std::size_t>(b) * m + a] = static_cast<float>(mask_at(d));
+      }
+#pragma omp parallel for schedule(static)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
-        float m = 0;
-        for (int b = 0; b < k; ++b)
-          for (int a = 0; a < k; ++a) {
-            const double u = (i - 1.0 + 3.0 * a / (k - 1)) * 2.0 / n - 1.0,
-                         v = (j - 1.0 + 3.0 * b / (k - 1)) * 2.0 / n - 1.0;
-            earth::Vec3 d{0, 0, 0};
-            d[f / 2] = f % 2 ? -1.0 : 1.0;
-            d[(f / 2 + 1) % 3] = u;
-            d[(f / 2 + 2) % 3] = v;
-            m = std::max(m, static_cast<float>(mask_at(d)));
-          }
-        mask_max_.texel(f, i, j) = m;
+        float mx = 0;  // texel i spans lattice points 2i + 2 .. 2i + 4; grown by one texel: 2i .. 2i + 6
+        for (int b = 2 * j; b <= 2 * j + 6; ++b)
+          for (int a = 2 * i; a <= 2 * i + 6; ++a) mx = std::max(mx, lattice[static_cast<std::size_t>(b) * m + a]);
+        mask_max_.texel(f, i, j) = mx;
       }
+  }
   // The smallest texel on a gnomonic face spans 2/n of the tangent plane at the face corner,
   // an angle of about (2/n)/3 rad; one such texel of margin is what a lookup guarantees.
   skip_radius_rad_ = (2.0 / n) / 3.0;
@@ -205,40 +211,128 @@ double CloudShell::mask_at(const earth::Vec3& p) const {
 }
 
 double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
-  const double r = glm::length(p);
-  const earth::Vec3 d = p / r;
-  const double alt = r - earth::radius_m;
-  const double mask = mask_->sample(maps_[0].upwind(d));
-  const double base = bias_ + mask_weight_ * mask - barrier(alt);
+  double out;
+  evaluate(&p, 1, &out, early_out);
+  return out;
+}
+
+void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
+  // Staged over chunks of points so that the texture fetches of many points overlap:
+  //  1. geometry, mask and the altitude barriers; points that cannot reach the level set leave;
+  //  2. the texture footprints of every fractal term and, for classify(), the terms' bounds
+  //     over the footprints' blocks (a small table that stays in cache): points whose side
+  //     the bounds decide leave without touching the textures;
+  //  3. per term, in order, a prefetch of the next term's texels and the sample, leaving as
+  //     soon as the bounds of the terms not yet added decide the side.
+  // Each point sees exactly the arithmetic of a one-point call, so results do not depend on n.
+  constexpr std::size_t chunk = 64;
   const double thr = p_.threshold;
-  if (mask < p_.min_mask) return std::min(base + fractal_max_, thr) - 1.0;
-  if (base + fractal_max_ < thr) return base + fractal_max_;  // cannot reach the level set
-  double v = base;
-  double remaining_max = fractal_max_;  // largest sum the terms not yet added can contribute
-  double remaining_min = fractal_min_;  // smallest (negative weights)
-  earth::Vec3 di = d;
-  double last_hours = -1;
-  for (int i : order_) {
-    const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
-    if (term.weight == 0) continue;
-    if (early_out && (v + remaining_max < thr || v + remaining_min > thr)) break;  // side decided
-    const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
-    if (map.hours() != last_hours) {
-      di = map.upwind(d);
-      last_hours = map.hours();
+  struct State {
+    earth::Vec3 d, di;  // unit direction, and its upwind point for the current term
+    double r, v;
+    std::array<noise::Texture3D::Footprint, 3> f;  // per term, in evaluation order
+    std::array<double, 3> lo, hi;                  // the terms' contribution bounds, in evaluation order
+  };
+  // The terms with a non-zero weight, in evaluation order.
+  std::array<int, 3> terms{};
+  std::size_t nt = 0;
+  for (int i : order_)
+    if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
+  // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign
+  // of each weight).
+  auto rest = [nt](const State& s, std::size_t t, double& lo, double& hi) {
+    lo = hi = 0;
+    for (std::size_t u = t; u < nt; ++u) lo += s.lo[u], hi += s.hi[u];
+  };
+  std::array<State, chunk> st;
+  std::array<std::uint8_t, chunk> live{};  // indices (within the chunk) of undecided points
+  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
+    const std::size_t m = std::min(chunk, n - c0);
+    std::size_t nlive = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      State& s = st[j];
+      s.r = glm::length(p[c0 + j]);
+      s.d = p[c0 + j] / s.r;
+      const double alt = s.r - earth::radius_m;
+      const double mask = mask_->sample(maps_[0].upwind(s.d));
+      const double base = bias_ + mask_weight_ * mask - barrier(alt);
+      if (mask < p_.min_mask) {
+        out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
+      } else if (base + fractal_max_ < thr) {
+        out[c0 + j] = base + fractal_max_;  // cannot reach the level set
+      } else {
+        s.v = base;
+        live[nlive++] = static_cast<std::uint8_t>(j);
+      }
     }
-    // Texture coordinates in tiles; reduce in double before the float lookup.
-    const earth::Vec3 q = di * (r / term.length_scale_m);
-    const earth::Vec3 fq = q - glm::floor(q);
-    v += term.weight * (*tex_)[i].sample(static_cast<float>(fq.x), static_cast<float>(fq.y), static_cast<float>(fq.z));
-    remaining_max -= std::max(0.0, term.weight);
-    remaining_min -= std::min(0.0, term.weight);
+    // Footprints (texture coordinates in tiles, reduced in double before the float lookup),
+    // in short passes over the points so that their cache misses overlap: the upwind
+    // directions, then the footprints (prefetching their bounds), then the bounds.
+    for (std::size_t t = 0; t < nt; ++t) {
+      const int i = terms[t];
+      const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+      const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
+      const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
+      const noise::Texture3D& tex = (*tex_)[i];
+      for (std::size_t a = 0; a < nlive; ++a) {
+        State& s = st[live[a]];
+        if (!same_upwind) s.di = map.upwind(s.d);
+        const earth::Vec3 q = s.di * (s.r / term.length_scale_m);
+        const earth::Vec3 fq = q - glm::floor(q);
+        s.f[t] = tex.footprint(static_cast<float>(fq.x), static_cast<float>(fq.y), static_cast<float>(fq.z));
+        tex.prefetch_bounds(s.f[t]);
+      }
+    }
+    std::size_t kept = 0;
+    for (std::size_t a = 0; a < nlive; ++a) {
+      State& s = st[live[a]];
+      for (std::size_t t = 0; t < nt; ++t) {
+        const int i = terms[t];
+        const noise::Texture3D::Bounds b = (*tex_)[i].bounds(s.f[t]);
+        const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
+        const double wl = weight * b.lo, wh = weight * b.hi;
+        s.lo[t] = std::min(wl, wh);
+        s.hi[t] = std::max(wl, wh);
+      }
+      if (early_out) {
+        double lo, hi;
+        rest(s, 0, lo, hi);
+        if (s.v + hi < thr || s.v + lo > thr) {  // side decided by the local bounds
+          out[c0 + live[a]] = s.v + (s.v + hi < thr ? hi : lo);
+          continue;
+        }
+      }
+      if (nt > 0) (*tex_)[terms[0]].prefetch(s.f[0]);
+      live[kept++] = live[a];
+    }
+    nlive = kept;
+    for (std::size_t t = 0; t < nt; ++t) {
+      const int i = terms[t];
+      const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
+      const noise::Texture3D& tex = (*tex_)[i];
+      kept = 0;
+      for (std::size_t a = 0; a < nlive; ++a) {
+        State& s = st[live[a]];
+        s.v += weight * tex.sample(s.f[t]);
+        if (t + 1 == nt) {
+          out[c0 + live[a]] = s.v;  // every term added: exact
+          continue;
+        }
+        if (early_out) {
+          double lo, hi;
+          rest(s, t + 1, lo, hi);
+          if (s.v + hi < thr || s.v + lo > thr) {  // side decided: a bound with the same side
+            out[c0 + live[a]] = s.v + (s.v + hi < thr ? hi : lo);
+            continue;
+          }
+        }
+        (*tex_)[terms[t + 1]].prefetch(s.f[t + 1]);
+        live[kept++] = live[a];
+      }
+      nlive = kept;
+    }
+    for (std::size_t a = 0; a < nlive; ++a) out[c0 + live[a]] = st[live[a]].v;  // no terms at all
   }
-  // A bound with the right side: add the undecided terms' extreme in the direction that keeps
-  // the sign (when no term was skipped this is exact).
-  if (v + remaining_max < thr) return v + remaining_max;
-  if (v + remaining_min > thr) return v + remaining_min;
-  return v;
 }
 
 earth::Vec3 CloudShell::gradient(const earth::Vec3& p, double h) const {

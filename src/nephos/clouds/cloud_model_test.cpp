@@ -50,6 +50,34 @@ TEST(CloudShell, CalibratedMaskMeansCloudFraction) {
   EXPECT_EQ(cloudy_fraction(shell_with_mask(0.0f)), 0.0);  // below min_mask: clear sky
 }
 
+TEST(CloudShell, BatchedEvaluationIsBitIdenticalToSinglePoints) {
+  // Ray marching evaluates many points per call; every point must get exactly what a
+  // one-point call gives (thread- and batch-independent output). Points through the whole
+  // shell and beyond, with a varying mask so every early exit is exercised.
+  auto cube = std::make_shared<CubeMap<float>>(16);
+  cube->fill([](const earth::Vec3& d) { return static_cast<float>(0.5 + 0.5 * d.x); });
+  const CloudTypeParams params = CloudModelParams()[CloudType::low_cumulus];
+  const CloudShell s(CloudType::low_cumulus, params, small_textures(), cube, std::vector<DisplacementMap>(4));
+  std::vector<earth::Vec3> p(1000);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const earth::Vec3 d = earth::unit_from_latlon(-80 + 160 * uniform01(6, i, 0), -180 + 360 * uniform01(6, i, 1));
+    p[i] = d * (earth::radius_m - 500 + 7000 * uniform01(6, i, 2));
+  }
+  std::vector<double> c(p.size()), v(p.size());
+  s.classify(p.data(), p.size(), c.data());
+  s.value(p.data(), p.size(), v.data());
+  int inside = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    ASSERT_EQ(c[i], s.classify(p[i])) << i;
+    ASSERT_EQ(v[i], s.value(p[i])) << i;
+    // classify() returns a bound with CF's side of the threshold.
+    ASSERT_EQ(c[i] > s.threshold(), v[i] > s.threshold()) << i;
+    inside += v[i] > s.threshold();
+  }
+  EXPECT_GT(inside, 20);  // both sides are represented
+  EXPECT_LT(inside, 980);
+}
+
 TEST(CloudShell, AltitudeBarriersSuppressCloudAtTheShellEdges) {
   const CloudShell s = shell_with_mask(1.0f);
   const earth::Vec3 d = earth::unit_from_latlon(12, 34);

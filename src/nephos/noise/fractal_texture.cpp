@@ -137,7 +137,33 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
     if (spec.invert) v = 1.0f - v;
     d[q] = static_cast<std::uint16_t>(std::lround(v * 65535.0f));
   }
+  t.update_bounds();
   return t;
+}
+
+void Texture3D::update_bounds() {
+  if (n_ % static_cast<int>(block_size) != 0)
+    throw ValueError(fmt::format("texture size must be a multiple of {}, got {}", block_size, n_), {.key = "texture"});
+  const int b = static_cast<int>(block_size), nb = n_ / b;
+  block_bounds_.assign(static_cast<std::size_t>(nb) * nb * nb, {});
+  const unsigned mask = static_cast<unsigned>(n_ - 1);
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int bk = 0; bk < nb; ++bk)
+    for (int bj = 0; bj < nb; ++bj)
+      for (int bi = 0; bi < nb; ++bi) {
+        std::uint16_t lo = 65535, hi = 0;
+        for (int k = 0; k <= b; ++k)  // the block and one voxel beyond (periodic)
+          for (int j = 0; j <= b; ++j)
+            for (int i = 0; i <= b; ++i) {
+              const unsigned x = static_cast<unsigned>(bi * b + i) & mask, y = static_cast<unsigned>(bj * b + j) & mask,
+                             z = static_cast<unsigned>(bk * b + k) & mask;
+              const std::uint16_t v =
+                  data_[(static_cast<std::size_t>(z) * static_cast<unsigned>(n_) + y) * static_cast<unsigned>(n_) + x];
+              lo = std::min(lo, v);
+              hi = std::max(hi, v);
+            }
+        block_bounds_[(static_cast<std::size_t>(bk) * nb + bj) * nb + bi] = {lo, hi};
+      }
 }
 
 }  // namespace nephos::noise

@@ -80,61 +80,103 @@ struct Layer {  // one cloud type's contribution to one pixel
 ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
                      int steps, int bisection_iterations) {
   ShellHit hit;
-  Path path;
-  if (!shell_path(shell.radius_bottom_m(), shell.radius_top_m(), o, d, t_max, path)) return hit;
-  // Empty-space skipping: look up the mask's neighbourhood maximum along the path, one lookup
-  // per skip radius of arc; a ray whose whole path sees no possible cloud costs nothing more.
-  {
-    const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d), b = glm::normalize(o + path.t_at(path.length()) * d);
-    const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-    const int n = 1 + static_cast<int>(arc / shell.skip_radius_rad());
-    bool possible = false;
-    for (int i = 0; i <= n && !possible; ++i) possible = shell.may_have_cloud(o + path.t_at(path.length() * i / n) * d);
-    if (!possible) return hit;
-  }
-  const double len = path.length(), ds = len / steps, thr = shell.threshold();
-  double s_prev = 0, v_prev = shell.classify(o + path.t_at(0) * d) - thr;
-  double s_hit = -1;
-  int k = 1;
-  if (v_prev > 0) {
-    s_hit = 0;
-  } else {
-    for (; k <= steps; ++k) {
-      const double s = k * ds, v = shell.classify(o + path.t_at(s) * d) - thr;
-      if (v > 0) {  // refine the first crossing in (s_prev, s] by bisection
-        double lo = s_prev, hi = s;
-        for (int it = 0; it < bisection_iterations; ++it) {
-          const double mid = 0.5 * (lo + hi);
-          (shell.classify(o + path.t_at(mid) * d) - thr > 0 ? hi : lo) = mid;
-        }
-        s_hit = hi;
-        // Depth inside this step, from the surface to the step's end.
-        hit.depth_m = s - s_hit;
-        s_prev = s;
-        v_prev = v;
-        ++k;
-        break;
-      }
-      s_prev = s;
-      v_prev = v;
-    }
-    if (s_hit < 0) return hit;
-  }
-  // Depth through the rest of the shell: linear interpolation between samples (of CF, or of
-  // the bounds classify() returns, which keep CF's side: accuracy of order one step).
-  for (; k <= steps; ++k) {
-    const double s = k * ds, v = shell.classify(o + path.t_at(s) * d) - thr;
-    hit.depth_m += ds * inside_fraction(v_prev, v);
-    v_prev = v;
-  }
-  hit.hit = true;
-  hit.t = path.t_at(s_hit);
-  hit.position = o + hit.t * d;
-  const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
-  const earth::Vec3 g = shell.gradient(hit.position, h);
-  const double gl = glm::length(g);
-  hit.normal = gl > 0 ? -g / gl : -d;
+  march_shell(shell, o, &d, &t_max, 1, steps, bisection_iterations, &hit);
   return hit;
+}
+
+void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits) {
+  // Rays advance in lockstep, one batched classify() per step over every ray still in the
+  // shell, so the texture misses of different rays overlap (see CloudShell::classify).
+  struct Ray {
+    std::size_t i;           // index into d / hits
+    Path path;               // the ray's part inside the shell
+    double ds;               // step length [m]
+    double v_prev;           // CF - threshold at the previous sample
+    int k_hit = -1;          // step of the first sample inside (0: the path starts inside)
+    double lo = 0, hi = 0;   // crossing bracket [path length]
+    double depth_after = 0;  // depth accumulated after the crossing step [m]
+  };
+  std::vector<Ray> rays;
+  rays.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    hits[i] = ShellHit{};
+    Path path;
+    if (!shell_path(shell.radius_bottom_m(), shell.radius_top_m(), o, d[i], t_max[i], path)) continue;
+    // Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
+    // lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
+    // nothing more.
+    const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d[i]);
+    const earth::Vec3 b = glm::normalize(o + path.t_at(path.length()) * d[i]);
+    const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+    const int m = 1 + static_cast<int>(arc / shell.skip_radius_rad());
+    bool possible = false;
+    for (int j = 0; j <= m && !possible; ++j)
+      possible = shell.may_have_cloud(o + path.t_at(path.length() * j / m) * d[i]);
+    if (possible) rays.push_back({i, path, path.length() / steps, 0});
+  }
+  if (rays.empty()) return;
+  const double thr = shell.threshold();
+  std::vector<earth::Vec3> pts(rays.size() * 4);
+  std::vector<double> vals(pts.size());
+  for (int k = 0; k <= steps; ++k) {
+    for (std::size_t j = 0; j < rays.size(); ++j) pts[j] = o + rays[j].path.t_at(k * rays[j].ds) * d[rays[j].i];
+    shell.classify(pts.data(), rays.size(), vals.data());
+    for (std::size_t j = 0; j < rays.size(); ++j) {
+      Ray& r = rays[j];
+      const double v = vals[j] - thr;
+      if (r.k_hit < 0 && v > 0) {  // first sample inside: bracket the crossing
+        r.k_hit = k;
+        r.lo = k > 0 ? (k - 1) * r.ds : 0;
+        r.hi = k * r.ds;
+      } else if (r.k_hit >= 0) {
+        // Depth after the crossing step: linear interpolation between samples (of CF, or of
+        // the bounds classify() returns, which keep CF's side: accuracy of order one step).
+        r.depth_after += r.ds * inside_fraction(r.v_prev, v);
+      }
+      r.v_prev = v;
+    }
+  }
+  // Keep the rays that found cloud; refine their first crossing by bisection, all together.
+  std::erase_if(rays, [](const Ray& r) { return r.k_hit < 0; });
+  for (int it = 0; it < bisection_iterations; ++it) {
+    for (std::size_t j = 0; j < rays.size(); ++j)
+      pts[j] = o + rays[j].path.t_at(0.5 * (rays[j].lo + rays[j].hi)) * d[rays[j].i];
+    shell.classify(pts.data(), rays.size(), vals.data());
+    for (std::size_t j = 0; j < rays.size(); ++j) {
+      Ray& r = rays[j];
+      if (r.k_hit == 0) continue;  // starts inside: the surface is the path's start
+      (vals[j] - thr > 0 ? r.hi : r.lo) = 0.5 * (r.lo + r.hi);
+    }
+  }
+  // Surface normals from the CF gradient by forward differences (O(h) error with h ~ two fine
+  // voxels, far below what shading needs): four batched exact evaluations per ray.
+  const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
+  const std::size_t nh = rays.size();
+  for (std::size_t j = 0; j < nh; ++j) {
+    const Ray& r = rays[j];
+    const double s_hit = r.k_hit == 0 ? 0.0 : r.hi;
+    const earth::Vec3 p = o + r.path.t_at(s_hit) * d[r.i];
+    pts[j] = p;
+    pts[nh + j] = p + earth::Vec3{h, 0, 0};
+    pts[2 * nh + j] = p + earth::Vec3{0, h, 0};
+    pts[3 * nh + j] = p + earth::Vec3{0, 0, h};
+  }
+  shell.value(pts.data(), 4 * nh, vals.data());
+  for (std::size_t j = 0; j < nh; ++j) {
+    const Ray& r = rays[j];
+    ShellHit& hit = hits[r.i];
+    const double s_hit = r.k_hit == 0 ? 0.0 : r.hi;
+    hit.hit = true;
+    hit.t = r.path.t_at(s_hit);
+    hit.position = pts[j];
+    // Depth: from the surface to the end of the crossing step, then the steps after it.
+    hit.depth_m = (r.k_hit * r.ds - s_hit) + r.depth_after;
+    const double v0 = vals[j];
+    const earth::Vec3 g{(vals[nh + j] - v0) / h, (vals[2 * nh + j] - v0) / h, (vals[3 * nh + j] - v0) / h};
+    const double gl = glm::length(g);
+    hit.normal = gl > 0 ? -g / gl : -d[r.i];
+  }
 }
 
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
@@ -192,11 +234,19 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
                              shell.params().effective_radius_um, optics::band("vis"));
 #pragma omp parallel for schedule(dynamic, 4)
     for (int y = 0; y < h; ++y) {
+      // A whole row marched together (rays in lockstep: see march_shell).
+      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+      std::vector<double> t_max(static_cast<std::size_t>(w));
+      std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
+      for (int x = 0; x < w; ++x) {
+        dirs[static_cast<std::size_t>(x)] = sensor.ray(x + 0.5, y + 0.5);
+        t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
+      }
+      march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
+                  params.bisection_iterations, row_hits.data());
       for (int x = 0; x < w; ++x) {
         const std::size_t px = static_cast<std::size_t>(y) * w + x;
-        const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
-        const ShellHit hit =
-            march_shell(shell, sensor.position, d, t_earth[px], params.steps, params.bisection_iterations);
+        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
         if (!hit.hit) continue;
         Layer& L = layers[px * ns + si];
         L.t = static_cast<float>(hit.t);

@@ -50,6 +50,10 @@ struct ShellHit {
 /// Marches one shell along o + t d up to t_max (the Earth's surface or infinity).
 ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
                      int steps, int bisection_iterations);
+/// Marches n rays o + t d[i] (t < t_max[i]) through one shell together, into hits[i]: the
+/// same result as n single-ray calls, faster (the rays' texture fetches overlap).
+void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits);
 
 /// Renders all shells of `scene` from `sensor`. `weather` (optional) gives the surface
 /// temperature for the thermal background.

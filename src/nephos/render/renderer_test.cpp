@@ -155,6 +155,36 @@ TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(a.cloud_type[0], -1);
 }
 
+TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
+  // The renderer marches a row of rays in lockstep; each must find exactly what it finds alone.
+  const auto& r = real();
+  const Sensor geo = Sensor::geostationary(-75.2, 64, 64);
+  for (const auto& shell : r.scene.shells) {
+    int hits = 0;
+    for (int y = 8; y < geo.height; y += 8) {
+      std::vector<earth::Vec3> d(static_cast<std::size_t>(geo.width));
+      std::vector<double> t_max(d.size());
+      for (int x = 0; x < geo.width; ++x) {
+        d[static_cast<std::size_t>(x)] = geo.ray(x + 0.5, y + 0.5);
+        const auto e = earth::ray_sphere(geo.position, d[static_cast<std::size_t>(x)], earth::radius_m);
+        t_max[static_cast<std::size_t>(x)] = e && e->t0 > 0 ? e->t0 : 1e12;
+      }
+      std::vector<ShellHit> row(d.size());
+      march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, row.data());
+      for (std::size_t x = 0; x < d.size(); ++x) {
+        const ShellHit one = march_shell(shell, geo.position, d[x], t_max[x], 25, 7);
+        ASSERT_EQ(one.hit, row[x].hit);
+        if (!one.hit) continue;
+        ++hits;
+        EXPECT_EQ(one.t, row[x].t);
+        EXPECT_EQ(one.depth_m, row[x].depth_m);
+        EXPECT_EQ(one.normal, row[x].normal);
+      }
+    }
+    EXPECT_GT(hits, 10) << weather::name(shell.type());
+  }
+}
+
 TEST(RendererOnGfs, GeoAndLeoSeeTheSameCloudTops) {
   // Deterministic clouds: a LEO nadir view below the GEO sub-satellite point finds cloud
   // surfaces; the ray from GEO towards the same points must find the same surface within the

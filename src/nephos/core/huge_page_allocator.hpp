@@ -1,0 +1,50 @@
+#pragma once
+// A std::allocator for large, randomly accessed arrays (3D textures sampled along rays that
+// jump kilometres between pixels). With 4 KiB pages a 32 MiB texture spans 8192 pages, more
+// than the CPU's second-level TLB holds, so nearly every random fetch also pays a page walk.
+// Allocations of 2 MiB or more are aligned to 2 MiB and marked MADV_HUGEPAGE before their
+// first touch, so Linux backs them with transparent huge pages where it can (the default
+// "madvise" policy of Debian). Elsewhere, or if the kernel declines, it is a plain aligned
+// allocation: only speed differs, never results.
+#include <cstddef>
+#include <cstdlib>
+#include <new>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace nephos {
+
+template <class T>
+struct HugePageAllocator {
+  using value_type = T;
+  static constexpr std::size_t huge_page_bytes = std::size_t{2} << 20;
+
+  HugePageAllocator() = default;
+  template <class U>
+  HugePageAllocator(const HugePageAllocator<U>&) noexcept {}
+
+  T* allocate(std::size_t n) {
+    const std::size_t bytes = n * sizeof(T);
+    if (bytes < huge_page_bytes) {
+      if (void* p = std::malloc(bytes ? bytes : 1)) return static_cast<T*>(p);
+      throw std::bad_alloc();
+    }
+    const std::size_t rounded = (bytes + huge_page_bytes - 1) / huge_page_bytes * huge_page_bytes;
+    void* p = std::aligned_alloc(huge_page_bytes, rounded);
+    if (!p) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    madvise(p, rounded, MADV_HUGEPAGE);  // advisory: failure only means 4 KiB pages
+#endif
+    return static_cast<T*>(p);
+  }
+  void deallocate(T* p, std::size_t) noexcept { std::free(p); }
+
+  template <class U>
+  bool operator==(const HugePageAllocator<U>&) const noexcept {
+    return true;
+  }
+};
+
+}  // namespace nephos
