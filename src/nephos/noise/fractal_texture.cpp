@@ -142,9 +142,11 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
 }
 
 void Texture3D::update_bounds() {
-  if (n_ % static_cast<int>(block_size) != 0)
-    throw ValueError(fmt::format("texture size must be a multiple of {}, got {}", block_size, n_), {.key = "texture"});
-  const int b = static_cast<int>(block_size), nb = n_ / b;
+  if (n_ < 1 || (n_ & (n_ - 1)) != 0)
+    throw ValueError(fmt::format("texture size must be a power of two, got {}", n_), {.key = "texture"});
+  block_shift_ = 0;
+  while ((n_ >> block_shift_) > bounds_grid) ++block_shift_;
+  const int b = 1 << block_shift_, nb = n_ / b;
   block_bounds_.assign(static_cast<std::size_t>(nb) * nb * nb, {});
   const unsigned mask = static_cast<unsigned>(n_ - 1);
 #pragma omp parallel for collapse(2) schedule(static)

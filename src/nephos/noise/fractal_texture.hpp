@@ -49,8 +49,8 @@ class Texture3D {
     const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask;
     const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & mask, y1 = (y0 + 1) & mask;
     const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & mask, z1 = (z0 + 1) & mask;
-    const unsigned sn = static_cast<unsigned>(n_), nb = sn / block_size;
-    const unsigned block = ((z0 / block_size) * nb + y0 / block_size) * nb + x0 / block_size;
+    const unsigned sn = static_cast<unsigned>(n_), nb = sn >> block_shift_;
+    const unsigned block = ((z0 >> block_shift_) * nb + (y0 >> block_shift_)) * nb + (x0 >> block_shift_);
     return {(z0 * sn + y0) * sn,
             (z0 * sn + y1) * sn,
             (z1 * sn + y0) * sn,
@@ -62,15 +62,17 @@ class Texture3D {
             y - fy,
             z - fz};
   }
-  /// Voxels per block edge of the bounds grid.
-  static constexpr unsigned block_size = 8;
+  /// Blocks per axis of the bounds grid: 32 (a 128 KiB table whatever the texture size).
+  static constexpr int bounds_grid = 32;
+  /// Voxels per block edge: max(1, n / 32).
+  int block_size() const { return 1 << block_shift_; }
   struct Bounds {
     float lo, hi;
   };
   /// Bounds of sample(f) for every f in the same block: the minimum and maximum voxel over the
   /// block grown by one voxel (the trilinear footprint's reach), widened by 1e-6 against the
-  /// rounding of the interpolation. The bounds grid (n/8)^3 is small enough to stay in cache
-  /// (128 KiB at 256^3), so it decides most samples without the texture's cache misses.
+  /// rounding of the interpolation. The bounds grid (at most 32^3 blocks) is small enough to stay in cache
+  /// (128 KiB), so it decides most samples without the texture's cache misses.
   Bounds bounds(const Footprint& f) const {
     const auto b = block_bounds_[f.block];
     return {b[0] * (1.0f / 65535.0f) - 1e-6f, b[1] * (1.0f / 65535.0f) + 1e-6f};
@@ -110,6 +112,7 @@ class Texture3D {
   int n_ = 0;
   std::vector<std::uint16_t, HugePageAllocator<std::uint16_t>> data_;  // random access: huge pages
   std::vector<std::array<std::uint16_t, 2>> block_bounds_;             // (min, max) per block
+  unsigned block_shift_ = 0;                                           // log2(voxels per block edge)
 };
 
 /// Unquantised fractal value at a point of the unit tile (x, y, z in [0, 1)), before the
