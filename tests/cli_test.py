@@ -353,6 +353,18 @@ class Fly(unittest.TestCase):
         with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
             self.assertEqual(self.frames(a, "--code", "d300"), self.frames(b, "--code", "d300"))
 
+    def test_desktop_gl33_draws_what_gles3_draws(self):
+        # The same shaders on both APIs (only the GLSL version line differs); on the same
+        # rasteriser the frames agree to the byte.
+        with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
+            es = self.frames(a, "--code", "d300", "--gl", "gles3")
+            gl = self.frames(b, "--code", "d300", "--gl", "gl33")
+            self.assertEqual(es, gl)
+            self.assertGreater(self.non_sky_fraction(Path(b) / "frame_0001.png"), 0.01)
+            r = run("fly", "--gl", "vulkan", "--out", Path(a) / "x")
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("gl33", r.stderr)
+
     def test_metar_and_bad_code(self):
         with tempfile.TemporaryDirectory() as d:
             self.frames(d, "--metar", "EGLL 051350Z FEW030 BKN045")

@@ -393,6 +393,7 @@ struct FlyOptions {
   bool no_impostors = false;
   double impostor_radius_km = 8;  // MSFS 2004's ring radius
   std::string change;             // CODE@SECONDS: the weather changes to CODE at that time of the flight
+  std::string gl = "gles3";       // OpenGL ES 3.0 or desktop OpenGL 3.3 core
   std::string out = "out/fly";
 };
 
@@ -437,7 +438,8 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const double alt_m = o.altitude_ft * 0.3048, speed_m_s = o.speed_kt * 0.514444;
   realtime::Camera cam{{0, 0, alt_m}, {1, 0, -0.05}, {0, 0, 1}, 60};
   realtime::CloudField field(recipe, g.seed, cam.position);
-  realtime::SpriteRenderer renderer(width, height, g.seed);
+  realtime::SpriteRenderer renderer(width, height, g.seed, realtime::gl_api_from_name(o.gl));
+  spdlog::info("OpenGL: {}", renderer.gl_version());
   renderer.set_impostor_radius(o.impostor_radius_km * 1000);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
   realtime::ResortPolicy policy;
@@ -661,6 +663,7 @@ int main(int argc, char** argv) {
   fly->add_option("--impostor-radius-km", fo.impostor_radius_km, "Radius of the impostor ring [km]")
       ->capture_default_str();
   fly->add_option("--change", fo.change, "CODE@SECONDS: the weather changes then (clouds form and dissipate)");
+  fly->add_option("--gl", fo.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
   ParticlesOptions po;

@@ -237,8 +237,26 @@ double impostor_half_height(const ImpostorRing& ring) { return std::atan(ring.ma
 
 std::array<std::uint8_t, 4> SpriteRenderer::sky_colour() { return {110, 160, 225, 255}; }
 
-SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
-    : impl_(std::make_unique<Impl>()), w_(width), h_(height) {
+GlApi gl_api_from_name(const std::string& name) {
+  if (name == "gles3") return GlApi::gles30;
+  if (name == "gl33") return GlApi::gl33;
+  throw ValueError("expected gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core), got '" + name + "'", {.key = "--gl"});
+}
+
+const char* name(GlApi api) { return api == GlApi::gl33 ? "gl33" : "gles3"; }
+
+SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed, GlApi api)
+    : impl_(std::make_unique<Impl>()), w_(width), h_(height), api_(api) {
+  create_context();
+  init_gl(seed);
+}
+
+SpriteRenderer::SpriteRenderer(UseCurrentContext, int width, int height, std::uint64_t seed, GlApi api)
+    : impl_(std::make_unique<Impl>()), w_(width), h_(height), api_(api) {
+  init_gl(seed);
+}
+
+void SpriteRenderer::create_context() {
   auto& m = *impl_;
   auto get_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
   m.dpy = get_display ? get_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr) : EGL_NO_DISPLAY;
@@ -246,16 +264,24 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   EGLint major = 0, minor = 0;
   if (m.dpy == EGL_NO_DISPLAY || !eglInitialize(m.dpy, &major, &minor))
     throw IoError("EGL: no display could be initialised");
-  eglBindAPI(EGL_OPENGL_ES_API);
-  const EGLint cfg_attr[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT, EGL_NONE};
+  const bool desktop = api_ == GlApi::gl33;
+  if (!eglBindAPI(desktop ? EGL_OPENGL_API : EGL_OPENGL_ES_API))
+    throw IoError(desktop ? "EGL: the desktop OpenGL API is not available" : "EGL: OpenGL ES is not available");
+  const EGLint cfg_attr[] = {EGL_RENDERABLE_TYPE, desktop ? EGL_OPENGL_BIT : EGL_OPENGL_ES3_BIT, EGL_NONE};
   EGLConfig cfg = nullptr;
   EGLint n = 0;
   eglChooseConfig(m.dpy, cfg_attr, &cfg, 1, &n);
-  const EGLint ctx_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 0, EGL_NONE};
-  m.ctx = eglCreateContext(m.dpy, n ? cfg : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, ctx_attr);
+  const EGLint es_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 0, EGL_NONE};
+  const EGLint gl_attr[] = {EGL_CONTEXT_MAJOR_VERSION,       3, EGL_CONTEXT_MINOR_VERSION, 3,
+                            EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                            EGL_NONE};
+  m.ctx = eglCreateContext(m.dpy, n ? cfg : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, desktop ? gl_attr : es_attr);
   if (m.ctx == EGL_NO_CONTEXT || !eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, m.ctx))
-    throw IoError("EGL: cannot create an OpenGL ES 3.0 context");
+    throw IoError(desktop ? "EGL: cannot create an OpenGL 3.3 core context" : "EGL: cannot create an OpenGL ES 3.0 context");
+}
 
+void SpriteRenderer::init_gl(std::uint64_t seed) {
+  auto& m = *impl_;
   glGenFramebuffers(1, &m.fbo);
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   glGenRenderbuffers(1, &m.colour);
@@ -265,7 +291,10 @@ SpriteRenderer::SpriteRenderer(int width, int height, std::uint64_t seed)
   if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
     throw IoError("OpenGL ES: framebuffer incomplete");
 
-  const std::string version = "#version 300 es\nprecision highp float;\nprecision highp sampler2DArray;\n";
+  // The one difference between the APIs' shaders: GLSL ES 3.00 and GLSL 3.30 share every
+  // construct used here, and 3.30 accepts (and ignores) the precision statements.
+  const std::string version = std::string(api_ == GlApi::gl33 ? "#version 330 core\n" : "#version 300 es\n") +
+                              "precision highp float;\nprecision highp sampler2DArray;\n";
   m.program = glCreateProgram();
   glAttachShader(m.program, compile(GL_VERTEX_SHADER, version + vertex_body));
   glAttachShader(m.program, compile(GL_FRAGMENT_SHADER, version + fragment_body));
@@ -664,6 +693,18 @@ std::vector<std::uint8_t> SpriteRenderer::read_pixels() const {
     std::copy_n(px.data() + static_cast<std::size_t>(h_ - 1 - y) * row, row,
                 out.data() + static_cast<std::size_t>(y) * row);
   return out;
+}
+
+void SpriteRenderer::present(int width, int height) const {
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, impl_->fbo);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  glBlitFramebuffer(0, 0, w_, h_, 0, 0, width, height, GL_COLOR_BUFFER_BIT, GL_LINEAR);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+std::string SpriteRenderer::gl_version() const {
+  const auto* v = reinterpret_cast<const char*>(glGetString(GL_VERSION));
+  return v ? v : "";
 }
 
 }  // namespace nephos::realtime

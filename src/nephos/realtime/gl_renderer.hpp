@@ -1,12 +1,15 @@
 #pragma once
-// Headless OpenGL ES 3.0 rendering of the sprite-cloud field through EGL (Mesa's llvmpipe
-// software rasteriser on machines without a GPU). One instanced draw call draws every sprite:
+// OpenGL rendering of the sprite-cloud field, on OpenGL ES 3.0 (the Android/avionics profile)
+// or desktop OpenGL 3.3 core with the same shaders (only the GLSL version line differs):
+// headless through EGL (Mesa's llvmpipe software rasteriser on machines without a GPU), or
+// into a window whose context the caller made current (nephos view, GLFW). One instanced draw call draws every sprite:
 // camera-facing quads from a texture array baked from nephos's own 3D fractal density, sorted
 // back to front, premultiplied-alpha blended, shaded on the CPU per sprite (MSFS 2004: five
 // height colour levels, a directional term per shading group, a time-of-day ambient factor).
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -39,11 +42,21 @@ struct FrameStats {
   std::size_t locked_sprites = 0;  ///< sprites whose facing is locked (camera inside them)
 };
 
+/// Which OpenGL: ES 3.0 or desktop 3.3 core profile.
+enum class GlApi { gles30, gl33 };
+/// "gles3" or "gl33" (ValueError naming the accepted values otherwise).
+GlApi gl_api_from_name(const std::string& name);
+const char* name(GlApi api);
+
 class SpriteRenderer {
  public:
-  /// Creates the EGL context and an off-screen framebuffer. Throws IoError if EGL/GLES 3.0 is
-  /// not available (the message says which call failed).
-  SpriteRenderer(int width, int height, std::uint64_t seed);
+  /// Creates a headless EGL context of `api` and an off-screen framebuffer. Throws IoError if
+  /// EGL or the API is not available (the message says which call failed).
+  SpriteRenderer(int width, int height, std::uint64_t seed, GlApi api = GlApi::gles30);
+  /// Uses the caller's current context of `api` (a window's); frames are drawn off screen as
+  /// always and copied to the window by present().
+  struct UseCurrentContext {};
+  SpriteRenderer(UseCurrentContext, int width, int height, std::uint64_t seed, GlApi api);
   ~SpriteRenderer();
   SpriteRenderer(const SpriteRenderer&) = delete;
   SpriteRenderer& operator=(const SpriteRenderer&) = delete;
@@ -59,6 +72,12 @@ class SpriteRenderer {
   void set_impostor_radius(double radius_m);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
+  /// Copies the last frame into the current context's default framebuffer (window mode),
+  /// scaled to `width` x `height` pixels.
+  void present(int width, int height) const;
+  GlApi api() const { return api_; }
+  /// The GL_VERSION string of the context.
+  std::string gl_version() const;
   /// RGBA8 pixels of the last frame, rows from the top.
   std::vector<std::uint8_t> read_pixels() const;
   int width() const { return w_; }
@@ -84,8 +103,11 @@ class SpriteRenderer {
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
   void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
                        const Camera& camera);
+  void create_context();
+  void init_gl(std::uint64_t seed);
   std::unique_ptr<Impl> impl_;
   int w_, h_;
+  GlApi api_;
 };
 
 }  // namespace nephos::realtime
