@@ -18,7 +18,9 @@ packages=(
   libtomlplusplus-dev                 # configuration files
   libcli11-dev                        # command line
   nlohmann-json3-dev                  # weather-code JSON (Foreca)
-  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri   # headless OpenGL ES (EGL; Mesa llvmpipe without a GPU)
+  libegl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri   # headless OpenGL ES / OpenGL 3.3 (EGL; Mesa llvmpipe without a GPU)
+  libglfw3-dev libgl1 libglx-mesa0    # nephos view: the window (GLFW on X11/GLX)
+  xvfb xauth                          # tests run nephos view on a virtual X server
   libspdlog-dev libfmt-dev            # logging, formatting
   libgtest-dev libgmock-dev           # tests
   libbenchmark-dev                    # benchmarks

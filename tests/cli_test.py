@@ -365,6 +365,33 @@ class Fly(unittest.TestCase):
             self.assertEqual(r.returncode, 2)
             self.assertIn("gl33", r.stderr)
 
+    def test_view_in_a_window(self):
+        # nephos view on a virtual X server (xvfb, installed by scripts/setup.sh), both APIs:
+        # a scripted flight of 20 frames, screenshot of the window as shown.
+        import shutil
+        self.assertIsNotNone(shutil.which("xvfb-run"), "xvfb-run missing: run scripts/setup.sh")
+        with tempfile.TemporaryDirectory() as d:
+            for api in ("gles3", "gl33"):
+                shot = Path(d) / f"{api}.png"
+                r = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 800x600x24", NEPHOS, "view", "--gl", api,
+                                    "--frames", "20", "--size", "320x180", "--code", "d400",
+                                    "--screenshot", shot], capture_output=True, text=True, timeout=300)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                self.assertIn("view:", r.stdout)
+                w, h, rows = Fly.read_rgb(shot)
+                self.assertEqual((w, h), (320, 180))
+                # Clouds in the picture (overcast d400), and the frame-time overlay in the top-left
+                # corner: white glyph pixels on its dark box.
+                self.assertGreater(self.non_sky_fraction(shot, "bottom"), 0.05)
+                corner = [rows[y][3 * x:3 * x + 3] for y in range(2, 20) for x in range(2, 60)]
+                self.assertGreater(sum(1 for p in corner if min(p) > 240), 20)
+                self.assertGreater(sum(1 for p in corner if max(p) < 40), 50)
+        # Without a display: a clear error, exit code 2.
+        env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+        r = subprocess.run([NEPHOS, "view", "--frames", "1"], capture_output=True, text=True, timeout=60, env=env)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("window system", r.stderr)
+
     def test_metar_and_bad_code(self):
         with tempfile.TemporaryDirectory() as d:
             self.frames(d, "--metar", "EGLL 051350Z FEW030 BKN045")

@@ -49,6 +49,7 @@
 #include "nephos/weather/synthetic.hpp"
 #include "particles_bench.hpp"
 #include "render_bench.hpp"
+#include "view.hpp"
 
 namespace fs = std::filesystem;
 using namespace nephos;
@@ -406,6 +407,39 @@ void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& rende
   io::write_png(path, renderer.width(), renderer.height(), 3, rgb);
 }
 
+// The clouds around the aircraft from whichever weather source the options name.
+realtime::CloudRecipe flight_recipe(const FlyOptions& o, const UtcTime& time, double lat, double lon) {
+  const int sources = !o.code.empty() + !o.metar.empty() + !o.foreca.empty() + !o.weather.empty();
+  if (sources > 1) throw ValueError("give one of --code, --metar, --foreca, --weather", {.key = "--code"});
+  if (!o.metar.empty()) return realtime::recipe_from_metar(o.metar);
+  if (!o.foreca.empty()) return realtime::recipe_from_code(realtime::code_from_foreca_json(o.foreca, time));
+  if (!o.weather.empty()) {
+    const weather::WeatherGrid w = weather::open_weather(o.weather);
+    return realtime::recipe_from_weather(weather::compute_masks(w, weather::MaskParams{}), w, lat, lon);
+  }
+  return realtime::recipe_from_code(realtime::parse_weather_code(o.code.empty() ? "d300" : o.code));
+}
+
+int run_view_command(const FlyOptions& o, const std::string& screenshot, const GlobalOptions& g) {
+  app::ViewOptions v;
+  std::tie(v.width, v.height) = parse_size(o.size);
+  const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
+  v.lat_deg = pos[0], v.lon_deg = pos[1];
+  const UtcTime time = UtcTime::parse(o.time);
+  if (o.frames < 0) throw ValueError("must be >= 0 (0: until the window is closed)", {.key = "--frames"});
+  v.time = time;
+  v.api = realtime::gl_api_from_name(o.gl);
+  v.recipe = flight_recipe(o, time, v.lat_deg, v.lon_deg);
+  v.frames = o.frames;
+  v.altitude_m = o.altitude_ft * 0.3048;
+  v.speed_m_s = o.speed_kt * 0.514444;
+  v.impostor_radius_m = o.impostor_radius_km * 1000;
+  v.impostors = !o.no_impostors;
+  v.screenshot = screenshot;
+  v.seed = g.seed;
+  return app::run_view(v);
+}
+
 int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
@@ -421,19 +455,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     const auto secs = parse_numbers(o.change.substr(at + 1), 1, "--change", "CODE@SECONDS");
     change.emplace(realtime::recipe_from_code(realtime::parse_weather_code(o.change.substr(0, at))), secs[0]);
   }
-  const int sources = !o.code.empty() + !o.metar.empty() + !o.foreca.empty() + !o.weather.empty();
-  if (sources > 1) throw ValueError("give one of --code, --metar, --foreca, --weather", {.key = "--code"});
-  realtime::CloudRecipe recipe;
-  if (!o.metar.empty())
-    recipe = realtime::recipe_from_metar(o.metar);
-  else if (!o.foreca.empty())
-    recipe = realtime::recipe_from_code(realtime::code_from_foreca_json(o.foreca, time));
-  else if (!o.weather.empty()) {
-    const weather::WeatherGrid w = weather::open_weather(o.weather);
-    recipe = realtime::recipe_from_weather(weather::compute_masks(w, weather::MaskParams{}), w, lat, lon);
-  } else {
-    recipe = realtime::recipe_from_code(realtime::parse_weather_code(o.code.empty() ? "d300" : o.code));
-  }
+  const realtime::CloudRecipe recipe = flight_recipe(o, time, lat, lon);
   spdlog::info("clouds from {}: {} sprite clouds", recipe.source, recipe.sprite_clouds());
   const double alt_m = o.altitude_ft * 0.3048, speed_m_s = o.speed_kt * 0.514444;
   realtime::Camera cam{{0, 0, alt_m}, {1, 0, -0.05}, {0, 0, 1}, 60};
@@ -666,6 +688,27 @@ int main(int argc, char** argv) {
   fly->add_option("--gl", fo.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
+  FlyOptions vo;
+  vo.frames = 0;
+  std::string screenshot;
+  auto* view = app.add_subcommand("view", "Sprite clouds in a window: fly with the keyboard and mouse (GLFW)");
+  view->add_option("--code", vo.code, "Foreca weather symbol, e.g. d300 (default)");
+  view->add_option("--metar", vo.metar, "METAR report (its cloud groups)");
+  view->add_option("--foreca", vo.foreca, "Foreca hourly or daily JSON");
+  view->add_option("--weather", vo.weather, "GRIB weather file (masks and winds at --position)");
+  view->add_option("--position", vo.position, "LAT,LON of the aircraft [deg]")->capture_default_str();
+  view->add_option("--size", vo.size, "Window WIDTHxHEIGHT")->capture_default_str();
+  view->add_option("--speed", vo.speed_kt, "Initial ground speed [kt]")->capture_default_str();
+  view->add_option("--altitude", vo.altitude_ft, "Initial altitude [ft]")->capture_default_str();
+  view->add_option("--time", vo.time, "UTC time for the sun (ISO 8601)")->capture_default_str();
+  view->add_flag("--no-impostors", vo.no_impostors, "Start with the impostor ring off (key I toggles it)");
+  view->add_option("--impostor-radius-km", vo.impostor_radius_km, "Radius of the impostor ring [km]")
+      ->capture_default_str();
+  view->add_option("--gl", vo.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
+  view->add_option("--frames", vo.frames, "Close after N frames of 1/30 s each (0: when the window is closed)")
+      ->capture_default_str();
+  view->add_option("--screenshot", screenshot, "PNG of the window's last frame, overlay included");
+
   ParticlesOptions po;
   auto* part = app.add_subcommand("particles", "Particle-system clouds from WRF or GFS (cloud top, optical thickness)");
   part->add_option("--weather", po.weather, "GRIB weather file(s), one per time (default: the embedded GFS sample)");
@@ -729,6 +772,7 @@ int main(int argc, char** argv) {
     if (*bench_render) return bench::run_render_bench(rbo, g.seed);
     if (*lbmc) return run_lbm(lo, g);
     if (*fly) return run_fly(fo, g);
+    if (*view) return run_view_command(vo, screenshot, g);
     if (*bench_lbm) return bench::run_lbm_bench(lbo, g.seed);
     if (*bench_fly) return bench::run_fly_bench(fbo, g.seed);
     if (*part) return run_particles(po, g);

@@ -69,4 +69,25 @@ SunLight sun_light(const UtcTime& time, double lat_deg, double lon_deg) {
   return l;
 }
 
+void FlightControls::step(const ControlInput& in, double dt_s, glm::dvec3& position) {
+  const double turn = std::clamp(in.turn, -1.0, 1.0), climb = std::clamp(in.climb, -1.0, 1.0);
+  heading_deg = std::fmod(heading_deg - turn * turn_rate_deg_s * dt_s + 360.0, 360.0);  // right = clockwise
+  path_deg = std::clamp(path_deg + climb * pitch_rate_deg_s * dt_s, -max_path_deg, max_path_deg);
+  speed_m_s =
+      std::clamp(speed_m_s + std::clamp(in.throttle, -1.0, 1.0) * accel_m_s2 * dt_s, min_speed_m_s, max_speed_m_s);
+  look_yaw_deg = std::clamp(look_yaw_deg + in.look_yaw_deg, -180.0, 180.0);
+  look_pitch_deg = std::clamp(look_pitch_deg + in.look_pitch_deg, -80.0, 80.0);
+  const double h = glm::radians(heading_deg), g = glm::radians(path_deg);
+  position += speed_m_s * dt_s * glm::dvec3(std::cos(g) * std::cos(h), std::cos(g) * std::sin(h), std::sin(g));
+  if (position.z < min_altitude_m) {
+    position.z = min_altitude_m;
+    path_deg = std::max(path_deg, 0.0);
+  }
+}
+
+glm::dvec3 FlightControls::view_direction() const {
+  const double h = glm::radians(heading_deg - look_yaw_deg), p = glm::radians(path_deg + look_pitch_deg);
+  return {std::cos(p) * std::cos(h), std::cos(p) * std::sin(h), std::sin(p)};
+}
+
 }  // namespace nephos::realtime

@@ -58,4 +58,30 @@ struct SunLight {
 };
 SunLight sun_light(const UtcTime& time, double lat_deg, double lon_deg);
 
+/// What the pilot is pressing this frame (nephos view): each axis in [-1, 1].
+struct ControlInput {
+  double turn = 0;                              ///< +1: turn right (arrow right / D)
+  double climb = 0;                             ///< +1: pitch up (arrow up)
+  double throttle = 0;                          ///< +1: faster (W), -1: slower (S)
+  double look_yaw_deg = 0, look_pitch_deg = 0;  ///< mouse look this frame (drag), added to the view offset
+};
+
+/// Simple flight for the window view: a heading, a flight-path angle and a ground speed, with
+/// rates and limits a light aircraft or airliner can fly; the view can look around the nose.
+/// East-north-up metres, heading 0 = east, counter-clockwise positive (as the cloud field).
+struct FlightControls {
+  double heading_deg = 0, path_deg = 0, speed_m_s = 128.6;  ///< 128.6 m/s = 250 kt
+  double look_yaw_deg = 0, look_pitch_deg = -3;             ///< view offset from the nose
+  double turn_rate_deg_s = 3;                               ///< standard rate turn
+  double pitch_rate_deg_s = 5;                              ///< flight-path change rate at full stick
+  double max_path_deg = 20;                                 ///< climb/descent angle limit
+  double accel_m_s2 = 5;                                    ///< throttle response
+  double min_speed_m_s = 30, max_speed_m_s = 260;
+  double min_altitude_m = 50;  ///< the aircraft does not fly into the ground
+  /// Moves `position` and updates the state by `dt_s` seconds of input.
+  void step(const ControlInput& in, double dt_s, glm::dvec3& position);
+  /// The viewing direction (unit): nose direction turned by the look offset.
+  glm::dvec3 view_direction() const;
+};
+
 }  // namespace nephos::realtime

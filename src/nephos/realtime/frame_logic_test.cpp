@@ -61,3 +61,44 @@ TEST(FrameLogic, SunDirectionAndReddening) {
 }
 
 }  // namespace nephos::realtime
+
+namespace nephos::realtime {
+
+TEST(FlightControls, StandardRateTurnClimbAndSpeedLimits) {
+  FlightControls fc;  // heading east, level, 250 kt
+  glm::dvec3 p{0, 0, 2000};
+  // Level flight: 10 s at 128.6 m/s east.
+  fc.step({}, 10.0, p);
+  EXPECT_NEAR(p.x, 1286.0, 1e-9);  // exact kinematics up to rounding
+  EXPECT_NEAR(p.y, 0.0, 1e-9);
+  // A standard-rate turn to the right for 30 s: 90 degrees clockwise, now heading south.
+  for (int i = 0; i < 300; ++i) fc.step({.turn = 1}, 0.1, p);
+  EXPECT_NEAR(fc.heading_deg, 270.0, 1e-6);
+  // Full back stick for 10 s: the flight path angle stops at its 20 degree limit.
+  for (int i = 0; i < 100; ++i) fc.step({.climb = 1}, 0.1, p);
+  EXPECT_DOUBLE_EQ(fc.path_deg, 20.0);
+  const double z = p.z;
+  fc.step({}, 1.0, p);
+  EXPECT_NEAR(p.z - z, fc.speed_m_s * std::sin(glm::radians(20.0)), 1e-9);  // climb rate = v sin(gamma)
+  // Throttle: clamps at the limits.
+  for (int i = 0; i < 1000; ++i) fc.step({.throttle = 1}, 0.1, p);
+  EXPECT_DOUBLE_EQ(fc.speed_m_s, fc.max_speed_m_s);
+  for (int i = 0; i < 1000; ++i) fc.step({.throttle = -1}, 0.1, p);
+  EXPECT_DOUBLE_EQ(fc.speed_m_s, fc.min_speed_m_s);
+  // Never below the minimum altitude.
+  for (int i = 0; i < 2000; ++i) fc.step({.climb = -1}, 0.1, p);
+  EXPECT_GE(p.z, fc.min_altitude_m);
+}
+
+TEST(FlightControls, LookingAroundTurnsTheViewNotTheAircraft) {
+  FlightControls fc;
+  fc.look_pitch_deg = 0;
+  glm::dvec3 p{0, 0, 1000};
+  fc.step({.look_yaw_deg = 90}, 0.0, p);  // look to the right wing: south when heading east
+  const glm::dvec3 v = fc.view_direction();
+  EXPECT_NEAR(v.x, 0.0, 1e-12);
+  EXPECT_NEAR(v.y, -1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(fc.heading_deg, 0.0);
+}
+
+}  // namespace nephos::realtime

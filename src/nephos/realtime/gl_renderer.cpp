@@ -272,12 +272,13 @@ void SpriteRenderer::create_context() {
   EGLint n = 0;
   eglChooseConfig(m.dpy, cfg_attr, &cfg, 1, &n);
   const EGLint es_attr[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 0, EGL_NONE};
-  const EGLint gl_attr[] = {EGL_CONTEXT_MAJOR_VERSION,       3, EGL_CONTEXT_MINOR_VERSION, 3,
-                            EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                            EGL_NONE};
+  const EGLint gl_attr[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           3,       EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   m.ctx = eglCreateContext(m.dpy, n ? cfg : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, desktop ? gl_attr : es_attr);
   if (m.ctx == EGL_NO_CONTEXT || !eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, m.ctx))
-    throw IoError(desktop ? "EGL: cannot create an OpenGL 3.3 core context" : "EGL: cannot create an OpenGL ES 3.0 context");
+    throw IoError(desktop ? "EGL: cannot create an OpenGL 3.3 core context"
+                          : "EGL: cannot create an OpenGL ES 3.0 context");
 }
 
 void SpriteRenderer::init_gl(std::uint64_t seed) {

@@ -1,0 +1,52 @@
+#include "nephos/realtime/gl_renderer.hpp"
+
+#include <gtest/gtest.h>
+
+#include "nephos/realtime/weather_input.hpp"
+
+namespace nephos::realtime {
+
+TEST(SpriteRendererGl, FacingLocksWithinHalfASpritesRadiusAndReleasesOutside) {
+  // Seed 004 (MSFS 2004): a sprite whose centre the camera is within half its radius of stops
+  // turning to face the camera. Headless EGL (Mesa llvmpipe), 64 x 64 frames.
+  const CloudField field(recipe_from_code(parse_weather_code("d300")), 3, {0, 0, 2000});
+  // How many sprites of the field have their centre within half their radius of p.
+  auto inside_count = [&](const glm::dvec3& p) {
+    std::size_t n = 0;
+    for (const SpriteCloud& c : field.clouds())
+      for (const Sprite& s : c.sprites) n += glm::length(p - (c.centre + glm::dvec3(s.offset))) < 0.25 * s.size_m;
+    return n;
+  };
+  // A sprite and a direction from its centre along which the camera meets no other sprite's
+  // lock zone between 0.45 and 0.55 of its radius (sprites of a cloud overlap).
+  glm::dvec3 centre{0}, dir{0};
+  double r = 0;
+  for (const SpriteCloud& c : field.clouds()) {
+    for (const Sprite& s : c.sprites) {
+      for (const glm::dvec3 d : {glm::dvec3(1, 0, 0), glm::dvec3(-1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, -1, 0),
+                                 glm::dvec3(0, 0, 1), glm::dvec3(0, 0, -1)}) {
+        const glm::dvec3 p = c.centre + glm::dvec3(s.offset);
+        const double rs = 0.5 * s.size_m;
+        if (inside_count(p + 0.45 * rs * d) == 1 && inside_count(p + 0.55 * rs * d) == 0) {
+          centre = p, dir = d, r = rs;
+          break;
+        }
+      }
+      if (r > 0) break;
+    }
+    if (r > 0) break;
+  }
+  ASSERT_GT(r, 0) << "no isolated sprite in this field";
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(64, 64, 3);
+  auto locked_at = [&](double fraction_of_radius, const glm::dvec3& forward) {
+    const Camera cam{centre + fraction_of_radius * r * dir, forward, {0, 0, 1}, 60};
+    return renderer.draw(field, cam, sun, true, false).locked_sprites;
+  };
+  EXPECT_EQ(locked_at(30, {1, 0, 0}), 0u);    // far away: every sprite faces the camera
+  EXPECT_EQ(locked_at(0.45, {1, 0, 0}), 1u);  // just inside half the radius: locked
+  EXPECT_EQ(locked_at(0.45, {0, 1, 0}), 1u);  // turning the camera inside keeps the lock
+  EXPECT_EQ(locked_at(0.55, {0, 1, 0}), 0u);  // just outside: released
+}
+
+}  // namespace nephos::realtime
