@@ -280,21 +280,21 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
         const earth::Vec3 q = s.di * (s.r / term.length_scale_m);
         const earth::Vec3 fq = q - glm::floor(q);
         s.f[t] = tex.footprint(static_cast<float>(fq.x), static_cast<float>(fq.y), static_cast<float>(fq.z));
-        tex.prefetch_bounds(s.f[t]);
+        if (early_out) tex.prefetch_bounds(s.f[t]);
       }
     }
     std::size_t kept = 0;
     for (std::size_t a = 0; a < nlive; ++a) {
       State& s = st[live[a]];
-      for (std::size_t t = 0; t < nt; ++t) {
-        const int i = terms[t];
-        const noise::Texture3D::Bounds b = (*tex_)[i].bounds(s.f[t]);
-        const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
-        const double wl = weight * b.lo, wh = weight * b.hi;
-        s.lo[t] = std::min(wl, wh);
-        s.hi[t] = std::max(wl, wh);
-      }
-      if (early_out) {
+      if (early_out) {  // value() adds every term: no bounds needed
+        for (std::size_t t = 0; t < nt; ++t) {
+          const int i = terms[t];
+          const noise::Texture3D::Bounds b = (*tex_)[i].bounds(s.f[t]);
+          const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
+          const double wl = weight * b.lo, wh = weight * b.hi;
+          s.lo[t] = std::min(wl, wh);
+          s.hi[t] = std::max(wl, wh);
+        }
         double lo, hi;
         rest(s, 0, lo, hi);
         if (s.v + hi < thr || s.v + lo > thr) {  // side decided by the local bounds

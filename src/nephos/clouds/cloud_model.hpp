@@ -100,10 +100,11 @@ class CloudShell {
 
   /// CF at Earth-fixed position p [m], exact.
   double value(const earth::Vec3& p) const { return evaluate(p, false); }
-  /// CF or, once the side of the threshold is certain, a bound on it with the same side:
-  /// fractal terms are added in order (coarse, Worley, fine: the most cache-friendly first)
-  /// and the rest skipped when their largest or smallest possible sum cannot change whether
-  /// CF exceeds the threshold. What ray marching needs, at a fraction of the texture fetches.
+  /// CF or, once the side of the threshold is certain, a bound on it with the same side: the
+  /// fractal terms' bounds over their texture blocks (Texture3D::bounds, cached) decide most
+  /// points without a texture fetch; otherwise terms are added in order (coarse, Worley, fine)
+  /// until the bounds of the rest cannot change whether CF exceeds the threshold. What ray
+  /// marching needs, at a fraction of the texture fetches.
   double classify(const earth::Vec3& p) const { return evaluate(p, true); }
   /// classify() of n points at once (out[i] for p[i]), bit-identical to n single calls but
   /// staged so that the texture fetches of many points overlap: at kilometre pixel spacing
