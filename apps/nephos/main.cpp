@@ -407,6 +407,23 @@ void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& rende
   io::write_png(path, renderer.width(), renderer.height(), 3, rgb);
 }
 
+// The options nephos fly and nephos view share: weather source, place, time, aircraft, GL API.
+void add_flight_options(CLI::App* c, FlyOptions& o) {
+  c->add_option("--code", o.code, "Foreca weather symbol, e.g. d300 (default)");
+  c->add_option("--metar", o.metar, "METAR report (its cloud groups)");
+  c->add_option("--foreca", o.foreca, "Foreca hourly or daily JSON");
+  c->add_option("--weather", o.weather, "GRIB weather file (masks and winds at --position)");
+  c->add_option("--position", o.position, "LAT,LON of the aircraft [deg]")->capture_default_str();
+  c->add_option("--size", o.size, "Frame WIDTHxHEIGHT")->capture_default_str();
+  c->add_option("--speed", o.speed_kt, "Ground speed [kt]")->capture_default_str();
+  c->add_option("--altitude", o.altitude_ft, "Altitude [ft]")->capture_default_str();
+  c->add_option("--time", o.time, "UTC time for the sun (ISO 8601)")->capture_default_str();
+  c->add_flag("--no-impostors", o.no_impostors, "Draw every cloud as sprites (no impostor ring)");
+  c->add_option("--impostor-radius-km", o.impostor_radius_km, "Radius of the impostor ring [km]")
+      ->capture_default_str();
+  c->add_option("--gl", o.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
+}
+
 // The clouds around the aircraft from whichever weather source the options name.
 realtime::CloudRecipe flight_recipe(const FlyOptions& o, const UtcTime& time, double lat, double lon) {
   const int sources = !o.code.empty() + !o.metar.empty() + !o.foreca.empty() + !o.weather.empty();
@@ -670,41 +687,17 @@ int main(int argc, char** argv) {
 
   FlyOptions fo;
   auto* fly = app.add_subcommand("fly", "Real-time sprite clouds along a straight, level flight (headless, EGL)");
-  fly->add_option("--code", fo.code, "Foreca weather symbol, e.g. d300 (default)");
-  fly->add_option("--metar", fo.metar, "METAR report (its cloud groups)");
-  fly->add_option("--foreca", fo.foreca, "Foreca hourly or daily JSON");
-  fly->add_option("--weather", fo.weather, "GRIB weather file (masks and winds at --position)");
-  fly->add_option("--position", fo.position, "LAT,LON of the aircraft [deg]")->capture_default_str();
+  add_flight_options(fly, fo);
   fly->add_option("--frames", fo.frames, "Frames (30 per second of flight)")->capture_default_str();
-  fly->add_option("--size", fo.size, "Frame WIDTHxHEIGHT")->capture_default_str();
-  fly->add_option("--speed", fo.speed_kt, "Ground speed [kt]")->capture_default_str();
-  fly->add_option("--altitude", fo.altitude_ft, "Altitude [ft]")->capture_default_str();
-  fly->add_option("--time", fo.time, "UTC time for the sun (ISO 8601)")->capture_default_str();
   fly->add_flag("--no-sort-opt", fo.no_sort_opt, "Re-sort every frame instead of only when the view changed");
-  fly->add_flag("--no-impostors", fo.no_impostors, "Draw every cloud as sprites (no impostor ring)");
-  fly->add_option("--impostor-radius-km", fo.impostor_radius_km, "Radius of the impostor ring [km]")
-      ->capture_default_str();
   fly->add_option("--change", fo.change, "CODE@SECONDS: the weather changes then (clouds form and dissipate)");
-  fly->add_option("--gl", fo.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
   FlyOptions vo;
   vo.frames = 0;
   std::string screenshot;
   auto* view = app.add_subcommand("view", "Sprite clouds in a window: fly with the keyboard and mouse (GLFW)");
-  view->add_option("--code", vo.code, "Foreca weather symbol, e.g. d300 (default)");
-  view->add_option("--metar", vo.metar, "METAR report (its cloud groups)");
-  view->add_option("--foreca", vo.foreca, "Foreca hourly or daily JSON");
-  view->add_option("--weather", vo.weather, "GRIB weather file (masks and winds at --position)");
-  view->add_option("--position", vo.position, "LAT,LON of the aircraft [deg]")->capture_default_str();
-  view->add_option("--size", vo.size, "Window WIDTHxHEIGHT")->capture_default_str();
-  view->add_option("--speed", vo.speed_kt, "Initial ground speed [kt]")->capture_default_str();
-  view->add_option("--altitude", vo.altitude_ft, "Initial altitude [ft]")->capture_default_str();
-  view->add_option("--time", vo.time, "UTC time for the sun (ISO 8601)")->capture_default_str();
-  view->add_flag("--no-impostors", vo.no_impostors, "Start with the impostor ring off (key I toggles it)");
-  view->add_option("--impostor-radius-km", vo.impostor_radius_km, "Radius of the impostor ring [km]")
-      ->capture_default_str();
-  view->add_option("--gl", vo.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
+  add_flight_options(view, vo);  // --no-impostors: start with the ring off (key I toggles it)
   view->add_option("--frames", vo.frames, "Close after N frames of 1/30 s each (0: when the window is closed)")
       ->capture_default_str();
   view->add_option("--screenshot", screenshot, "PNG of the window's last frame, overlay included");
