@@ -19,6 +19,20 @@ namespace {
 
 fs::path temp_file(const std::string& name) { return fs::temp_directory_path() / ("nephos_" + name + ".nc"); }
 
+// Writes a wrfout with the flaw of `s` as `name` and returns the FormatError reading it gives
+// (a test failure, and an empty error, when it reads without one).
+FormatError refusal(const WrfoutSpec& s, const std::string& name) {
+  const fs::path f = temp_file(name);
+  test_data::write_test_wrfout(f, s);
+  try {
+    read_wrf(f);
+  } catch (const FormatError& e) {
+    return e;
+  }
+  ADD_FAILURE() << name << " was read without an error";
+  return FormatError("no error");
+}
+
 // Independent of the reader: air density from WRF's definitions (theta = 300 K, p = P + PB).
 double air_density(double z_mass_m) {
   const double p = test_data::pressure_pa(z_mass_m);
@@ -85,17 +99,11 @@ TEST(WrfReader, RegionKeepsTheCellsInside) {
 
 TEST(WrfReader, MissingVariablesAreNamed) {
   for (const char* var : {"XLAT", "XLONG", "PH", "PHB", "P", "PB", "T", "QCLOUD", "U", "V", "W"}) {
-    const fs::path f = temp_file(std::string("wrf_no_") + var);
     WrfoutSpec s;
     s.omit = var;
-    test_data::write_test_wrfout(f, s);
-    try {
-      read_wrf(f);
-      ADD_FAILURE() << "no error without " << var;
-    } catch (const FormatError& e) {
-      EXPECT_EQ(e.context().field, var);
-      EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos) << e.what();
-    }
+    const FormatError e = refusal(s, std::string("wrf_no_") + var);
+    EXPECT_EQ(e.context().field, var);
+    EXPECT_NE(std::string(e.what()).find("missing"), std::string::npos) << e.what();
   }
 }
 
@@ -111,55 +119,30 @@ TEST(WrfReader, QiceIsOptional) {
 
 TEST(WrfReader, WrongUnitsDimensionsAndAttributesAreRefused) {
   {
-    const fs::path f = temp_file("wrf_units");
     WrfoutSpec s;
     s.bad_units = "QCLOUD";
-    test_data::write_test_wrfout(f, s);
-    try {
-      read_wrf(f);
-      ADD_FAILURE();
-    } catch (const FormatError& e) {
-      EXPECT_EQ(e.context().field, "QCLOUD");
-      EXPECT_NE(std::string(e.what()).find("kg kg-1"), std::string::npos) << e.what();
-    }
+    const FormatError e = refusal(s, "wrf_units");
+    EXPECT_EQ(e.context().field, "QCLOUD");
+    EXPECT_NE(std::string(e.what()).find("kg kg-1"), std::string::npos) << e.what();
   }
   {
-    const fs::path f = temp_file("wrf_dims");
     WrfoutSpec s;
     s.swap_dims = "U";
-    test_data::write_test_wrfout(f, s);
-    try {
-      read_wrf(f);
-      ADD_FAILURE();
-    } catch (const FormatError& e) {
-      EXPECT_EQ(e.context().field, "U");
-      EXPECT_NE(std::string(e.what()).find("west_east_stag"), std::string::npos) << e.what();
-    }
+    const FormatError e = refusal(s, "wrf_dims");
+    EXPECT_EQ(e.context().field, "U");
+    EXPECT_NE(std::string(e.what()).find("west_east_stag"), std::string::npos) << e.what();
   }
   {
-    const fs::path f = temp_file("wrf_nodx");
     WrfoutSpec s;
     s.omit_dx = true;
-    test_data::write_test_wrfout(f, s);
-    try {
-      read_wrf(f);
-      ADD_FAILURE();
-    } catch (const FormatError& e) {
-      EXPECT_EQ(e.context().key, "DX");
-    }
+    EXPECT_EQ(refusal(s, "wrf_nodx").context().key, "DX");
   }
 }
 
 TEST(WrfReader, TimesMustBeThereAndInWrfFormat) {
   const auto expect_times_error = [](const WrfoutSpec& s, const char* name) {
-    const fs::path f = temp_file(name);
-    test_data::write_test_wrfout(f, s);
-    try {
-      read_wrf(f);
-      ADD_FAILURE() << name;
-    } catch (const FormatError& e) {
-      EXPECT_EQ(e.context().field, "Times") << e.what();
-    }
+    const FormatError e = refusal(s, name);
+    EXPECT_EQ(e.context().field, "Times") << e.what();
   };
   WrfoutSpec no_times;
   no_times.omit_times = true;
