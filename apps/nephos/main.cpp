@@ -398,13 +398,9 @@ struct FlyOptions {
   std::string out = "out/fly";
 };
 
-/// The renderer's last frame as an RGB PNG (the sky is opaque, so alpha carries nothing).
+/// The renderer's last frame as an RGB PNG.
 void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& renderer) {
-  const auto rgba = renderer.read_pixels();
-  const std::size_t n = static_cast<std::size_t>(renderer.width()) * static_cast<std::size_t>(renderer.height());
-  std::vector<std::uint8_t> rgb(3 * n);
-  for (std::size_t i = 0; i < n; ++i) std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
-  io::write_png(path, renderer.width(), renderer.height(), 3, rgb);
+  app::write_rgb_png(path.string(), renderer.width(), renderer.height(), renderer.read_pixels());
 }
 
 // The options nephos fly and nephos view share: weather source, place, time, aircraft, GL API.

@@ -1,6 +1,6 @@
 #include "view.hpp"
 
-#include <GLES3/gl3.h>
+#define GLFW_INCLUDE_NONE  // GL calls go through the realtime module
 #include <GLFW/glfw3.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -53,21 +53,14 @@ double axis(GLFWwindow* w, int plus_a, int plus_b, int minus_a, int minus_b) {
   return (p ? 1.0 : 0.0) - (m ? 1.0 : 0.0);
 }
 
-// The default framebuffer as an RGB PNG (rows from the top).
-void write_window_png(const std::string& path, int w, int h) {
-  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 4);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-  std::vector<std::uint8_t> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      std::copy_n(
-          &rgba[(static_cast<std::size_t>(h - 1 - y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 4],
-          3, &rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) * 3]);
-  io::write_png(path, w, h, 3, rgb);
-}
-
 }  // namespace
+
+void write_rgb_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba) {
+  const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  std::vector<std::uint8_t> rgb(3 * n);
+  for (std::size_t i = 0; i < n; ++i) std::copy_n(rgba.data() + 4 * i, 3, rgb.data() + 3 * i);
+  io::write_png(path, width, height, 3, rgb);
+}
 
 int run_view(const ViewOptions& o) {
   Glfw glfw;
@@ -160,7 +153,8 @@ int run_view(const ViewOptions& o) {
                                         position.z / 0.3048, impostors ? "ON" : "OFF"),
                             scale * 2, scale * 10, scale, fb_h);
     const bool last_frame = o.frames > 0 && frame + 1 == o.frames;
-    if (last_frame && !o.screenshot.empty()) write_window_png(o.screenshot, fb_w, fb_h);
+    if (last_frame && !o.screenshot.empty())
+      write_rgb_png(o.screenshot, fb_w, fb_h, realtime::read_framebuffer_rgba(0, fb_w, fb_h));
     glfwSwapBuffers(window);
   }
   std::cout << fmt::format("view: {:.1f} s of flight, last frame time {:.1f} ms ({})\n", sim_s, shown_ms,

@@ -3,6 +3,7 @@
 // with an on-screen frame time. The same renderer, shaders and cloud field as nephos fly.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "nephos/core/time.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
@@ -23,6 +24,10 @@ struct ViewOptions {
   std::string screenshot;  ///< PNG of the last frame as shown, overlay included
   std::uint64_t seed = 1;
 };
+
+/// RGBA8 pixels (rows from the top) as an RGB PNG: the frames' sky is opaque, so alpha
+/// carries nothing.
+void write_rgb_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba);
 
 /// Opens the window and flies until it is closed (or `frames` have been shown). Throws
 /// IoError when no window can be opened (no display), naming the reason.

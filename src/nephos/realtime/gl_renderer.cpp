@@ -685,16 +685,18 @@ void SpriteRenderer::set_impostor_radius(double radius_m) {
   impl_->ring.valid = false;
 }
 
-std::vector<std::uint8_t> SpriteRenderer::read_pixels() const {
-  std::vector<std::uint8_t> px(static_cast<std::size_t>(w_) * h_ * 4), out(px.size());
-  glBindFramebuffer(GL_FRAMEBUFFER, impl_->fbo);
-  glReadPixels(0, 0, w_, h_, GL_RGBA, GL_UNSIGNED_BYTE, px.data());
-  const std::size_t row = static_cast<std::size_t>(w_) * 4;
-  for (int y = 0; y < h_; ++y)  // GL rows start at the bottom
-    std::copy_n(px.data() + static_cast<std::size_t>(h_ - 1 - y) * row, row,
+std::vector<std::uint8_t> read_framebuffer_rgba(unsigned framebuffer, int width, int height) {
+  const std::size_t row = static_cast<std::size_t>(width) * 4;
+  std::vector<std::uint8_t> px(row * static_cast<std::size_t>(height)), out(px.size());
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, px.data());
+  for (int y = 0; y < height; ++y)  // GL rows start at the bottom
+    std::copy_n(px.data() + static_cast<std::size_t>(height - 1 - y) * row, row,
                 out.data() + static_cast<std::size_t>(y) * row);
   return out;
 }
+
+std::vector<std::uint8_t> SpriteRenderer::read_pixels() const { return read_framebuffer_rgba(impl_->fbo, w_, h_); }
 
 void SpriteRenderer::present(int width, int height) const {
   glBindFramebuffer(GL_READ_FRAMEBUFFER, impl_->fbo);

@@ -48,6 +48,9 @@ enum class GlApi { gles30, gl33 };
 GlApi gl_api_from_name(const std::string& name);
 const char* name(GlApi api);
 
+/// RGBA8 pixels of `framebuffer` (0: the window's) of the current context, rows from the top.
+std::vector<std::uint8_t> read_framebuffer_rgba(unsigned framebuffer, int width, int height);
+
 class SpriteRenderer {
  public:
   /// Creates a headless EGL context of `api` and an off-screen framebuffer. Throws IoError if
