@@ -175,10 +175,7 @@ void CloudShell::build_skip_map() {
 #pragma omp parallel for schedule(static)
     for (int b = 0; b < m; ++b)
       for (int a = 0; a < m; ++a) {
-        earth::Vec3 d{0, 0, 0};
-        d[f / 2] = f % 2 ? -1.0 : 1.0;
-        d[(f / 2 + 1) % 3] = (a - 2.0) / n - 1.0;
-        d[(f / 2 + 2) % 3] = (b - 2.0) / n - 1.0;
+        const earth::Vec3 d = CubeMap<float>::face_point(f, (a - 2.0) / n - 1.0, (b - 2.0) / n - 1.0);
         lattice[static_cast<std::size_t>(b) * m + a] = static_cast<float>(mask_at(d));
       }
 #pragma omp parallel for schedule(static)

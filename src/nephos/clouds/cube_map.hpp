@@ -24,15 +24,19 @@ class CubeMap {
   std::vector<T>& data() { return data_; }
   const std::vector<T>& data() const { return data_; }
 
-  /// The unit direction through the centre of texel (i, j) of `face`.
-  earth::Vec3 texel_direction(int face, int i, int j) const {
-    const double u = (i + 0.5) * 2.0 / n_ - 1.0, v = (j + 0.5) * 2.0 / n_ - 1.0;
+  /// The point (u, v) in [-1, 1]^2 of `face` on the cube's surface (not normalised): the
+  /// inverse of the face selection in sample().
+  static earth::Vec3 face_point(int face, double u, double v) {
     earth::Vec3 d{0, 0, 0};
     const int a = face / 2;
     d[a] = face % 2 ? -1.0 : 1.0;
     d[(a + 1) % 3] = u;
     d[(a + 2) % 3] = v;
-    return glm::normalize(d);
+    return d;
+  }
+  /// The unit direction through the centre of texel (i, j) of `face`.
+  earth::Vec3 texel_direction(int face, int i, int j) const {
+    return glm::normalize(face_point(face, (i + 0.5) * 2.0 / n_ - 1.0, (j + 0.5) * 2.0 / n_ - 1.0));
   }
 
   /// Sets every texel to value(direction through its centre), in parallel (OpenMP).
