@@ -203,8 +203,10 @@ double CloudShell::barrier(double alt) const {
 }
 
 double CloudShell::mask_at(const earth::Vec3& p) const {
-  const earth::Vec3 d = glm::normalize(p);
-  return mask_->sample(maps_[0].upwind(d));
+  // The arithmetic of evaluate()'s first stage, so that the skip map bounds exactly the
+  // values evaluate() sees.
+  const double r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+  return mask_->sample(maps_[0].upwind(p / r));
 }
 
 double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
@@ -213,122 +215,182 @@ double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
   return out;
 }
 
+namespace {
+
+constexpr std::size_t eval_chunk = 128;  // points evaluated together (working set ~40 KiB)
+
+// Texture footprints of a chunk of points, one array per field (noise::Texture3D::Footprint).
+struct Footprints {
+  alignas(64) std::uint32_t row00[eval_chunk], row10[eval_chunk], row01[eval_chunk], row11[eval_chunk];
+  alignas(64) std::uint32_t x0[eval_chunk], x1[eval_chunk], block[eval_chunk];
+  alignas(64) float tx[eval_chunk], ty[eval_chunk], tz[eval_chunk];
+  void set(std::size_t a, const noise::Texture3D::Footprint& f) {
+    row00[a] = f.row00, row10[a] = f.row10, row01[a] = f.row01, row11[a] = f.row11;
+    x0[a] = f.x0, x1[a] = f.x1, block[a] = f.block;
+    tx[a] = f.tx, ty[a] = f.ty, tz[a] = f.tz;
+  }
+  noise::Texture3D::Footprint operator[](std::size_t a) const {
+    return {row00[a], row10[a], row01[a], row11[a], x0[a], x1[a], block[a], tx[a], ty[a], tz[a]};
+  }
+};
+
+// The working set of one chunk, as structure of arrays so that the geometric stages vectorise.
+struct EvalWork {
+  // Every point of the chunk: unit direction, radius, the mask's upwind direction, mask value
+  // and altitude barrier.
+  alignas(64) double x[eval_chunk], y[eval_chunk], z[eval_chunk], r[eval_chunk];
+  alignas(64) double mx[eval_chunk], my[eval_chunk], mz[eval_chunk], mask[eval_chunk], barrier[eval_chunk];
+  // The points left after the first stage, compacted: chunk index, direction, radius, partial
+  // CF, the upwind direction of the current term, footprints and bounds per term (in order).
+  alignas(64) std::uint32_t id[eval_chunk];
+  alignas(64) double lx[eval_chunk], ly[eval_chunk], lz[eval_chunk], lr[eval_chunk], v[eval_chunk];
+  alignas(64) double ux[eval_chunk], uy[eval_chunk], uz[eval_chunk];
+  std::array<Footprints, 3> f;
+  alignas(64) double lo[3][eval_chunk], hi[3][eval_chunk];
+  std::array<std::uint32_t, eval_chunk> sel;  // compacted positions still undecided
+};
+
+}  // namespace
+
 void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
-  // Staged over chunks of points so that the texture fetches of many points overlap:
-  //  1. geometry, mask and the altitude barriers; points that cannot reach the level set leave;
-  //  2. the texture footprints of every fractal term and, for classify(), the terms' bounds
-  //     over the footprints' blocks (a small table that stays in cache): points whose side
-  //     the bounds decide leave without touching the textures;
+  // Staged over chunks of points; the geometric stages are branch-free loops over arrays that
+  // the compiler vectorises (AVX-512: 8 points per instruction), the texture fetches of many
+  // points overlap:
+  //  1. direction, radius, the mask at its upwind point and the altitude barriers; points
+  //     that cannot reach the level set leave;
+  //  2. the upwind points and texture footprints of every fractal term and, for classify(),
+  //     the terms' bounds over the footprints' blocks (a small table that stays in cache):
+  //     points whose side the bounds decide leave without touching the textures;
   //  3. per term, in order, a prefetch of the next term's texels and the sample, leaving as
   //     soon as the bounds of the terms not yet added decide the side.
   // Each point sees exactly the arithmetic of a one-point call, so results do not depend on n.
-  constexpr std::size_t chunk = 64;
   const double thr = p_.threshold;
-  struct State {
-    earth::Vec3 d, di;  // unit direction, and its upwind point for the current term
-    double r, v;
-    std::array<noise::Texture3D::Footprint, 3> f;  // per term, in evaluation order
-    std::array<double, 3> lo, hi;                  // the terms' contribution bounds, in evaluation order
-  };
   // The terms with a non-zero weight, in evaluation order.
   std::array<int, 3> terms{};
   std::size_t nt = 0;
   for (int i : order_)
     if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
-  // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign
-  // of each weight).
-  auto rest = [nt](const State& s, std::size_t t, double& lo, double& hi) {
-    lo = hi = 0;
-    for (std::size_t u = t; u < nt; ++u) lo += s.lo[u], hi += s.hi[u];
-  };
-  std::array<State, chunk> st;
-  std::array<std::uint8_t, chunk> live{};  // indices (within the chunk) of undecided points
-  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
-    const std::size_t m = std::min(chunk, n - c0);
+  const CubeMap<float>& mask_cube = *mask_;
+  const float* mask_texels = mask_cube.data().data();
+  const int mask_n = mask_cube.size();
+  const float* bt = barrier_table_.data();
+  const double bt_last = static_cast<double>(barrier_table_.size() - 1);
+  EvalWork w;
+  for (std::size_t c0 = 0; c0 < n; c0 += eval_chunk) {
+    const std::size_t m = std::min(eval_chunk, n - c0);
+    // Stage 1.
+#pragma omp simd
+    for (std::size_t j = 0; j < m; ++j) {
+      const earth::Vec3& q = p[c0 + j];
+      const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+      w.r[j] = r, w.x[j] = q.x / r, w.y[j] = q.y / r, w.z[j] = q.z / r;
+    }
+    maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
+#pragma omp simd
+    for (std::size_t j = 0; j < m; ++j) {
+      using Cube = CubeMap<float>;
+      const Cube::Location l = Cube::locate(mask_n, w.mx[j], w.my[j], w.mz[j]);
+      const std::size_t k = l.index, row = static_cast<std::size_t>(mask_n);
+      w.mask[j] = Cube::blend(l, mask_texels[k], mask_texels[k + 1], mask_texels[k + row], mask_texels[k + row + 1]);
+      // The barrier table, clamped to its range (points off it take barrier() below).
+      const double xc = std::min(std::max(w.r[j] - earth::radius_m - barrier_z0_, 0.0), bt_last - 1);
+      const int i = static_cast<int>(xc);
+      const double t = xc - i;
+      w.barrier[j] = bt[i] + t * (bt[i + 1] - bt[i]);
+    }
     std::size_t nlive = 0;
     for (std::size_t j = 0; j < m; ++j) {
-      State& s = st[j];
-      s.r = glm::length(p[c0 + j]);
-      s.d = p[c0 + j] / s.r;
-      const double alt = s.r - earth::radius_m;
-      const double mask = mask_->sample(maps_[0].upwind(s.d));
-      const double base = bias_ + mask_weight_ * mask - barrier(alt);
-      if (mask < p_.min_mask) {
+      const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
+      const double bar = xb >= 0 && xb <= bt_last - 1 ? w.barrier[j] : barrier(alt);
+      const double base = bias_ + mask_weight_ * w.mask[j] - bar;
+      if (w.mask[j] < p_.min_mask) {
         out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
       } else if (base + fractal_max_ < thr) {
         out[c0 + j] = base + fractal_max_;  // cannot reach the level set
       } else {
-        s.v = base;
-        live[nlive++] = static_cast<std::uint8_t>(j);
+        w.id[nlive] = static_cast<std::uint32_t>(j);
+        w.lx[nlive] = w.x[j], w.ly[nlive] = w.y[j], w.lz[nlive] = w.z[j], w.lr[nlive] = w.r[j];
+        w.v[nlive] = base;
+        ++nlive;
       }
     }
-    // Footprints (texture coordinates in tiles, reduced in double before the float lookup),
-    // in short passes over the points so that their cache misses overlap: the upwind
-    // directions, then the footprints (prefetching their bounds), then the bounds.
+    // Stage 2: footprints (texture coordinates in tiles, reduced in double before the float
+    // lookup) and bounds.
     for (std::size_t t = 0; t < nt; ++t) {
       const int i = terms[t];
       const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
       const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
       const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
+      if (!same_upwind) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
       const noise::Texture3D& tex = (*tex_)[i];
+      const double ls = term.length_scale_m;
+      Footprints& f = w.f[t];
+#pragma omp simd
       for (std::size_t a = 0; a < nlive; ++a) {
-        State& s = st[live[a]];
-        if (!same_upwind) s.di = map.upwind(s.d);
-        const earth::Vec3 q = s.di * (s.r / term.length_scale_m);
-        const earth::Vec3 fq = q - glm::floor(q);
-        s.f[t] = tex.footprint(static_cast<float>(fq.x), static_cast<float>(fq.y), static_cast<float>(fq.z));
-        if (early_out) tex.prefetch_bounds(s.f[t]);
+        const double k = w.lr[a] / ls;
+        const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
+        f.set(a, tex.footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
+                               static_cast<float>(qz - std::floor(qz))));
+      }
+      if (early_out) {  // value() adds every term: no bounds needed
+        const double weight = term.weight;
+#pragma omp simd
+        for (std::size_t a = 0; a < nlive; ++a) {
+          const noise::Texture3D::Bounds b = tex.block_bounds(f.block[a]);
+          const double wl = weight * b.lo, wh = weight * b.hi;
+          w.lo[t][a] = std::min(wl, wh);
+          w.hi[t][a] = std::max(wl, wh);
+        }
       }
     }
-    std::size_t kept = 0;
+    // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign
+    // of each weight).
+    auto rest = [&w, nt](std::size_t a, std::size_t t, double& lo, double& hi) {
+      lo = hi = 0;
+      for (std::size_t u = t; u < nt; ++u) lo += w.lo[u][a], hi += w.hi[u][a];
+    };
+    std::size_t nsel = 0;
     for (std::size_t a = 0; a < nlive; ++a) {
-      State& s = st[live[a]];
-      if (early_out) {  // value() adds every term: no bounds needed
-        for (std::size_t t = 0; t < nt; ++t) {
-          const int i = terms[t];
-          const noise::Texture3D::Bounds b = (*tex_)[i].bounds(s.f[t]);
-          const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
-          const double wl = weight * b.lo, wh = weight * b.hi;
-          s.lo[t] = std::min(wl, wh);
-          s.hi[t] = std::max(wl, wh);
-        }
+      if (early_out) {
         double lo, hi;
-        rest(s, 0, lo, hi);
-        if (s.v + hi < thr || s.v + lo > thr) {  // side decided by the local bounds
-          out[c0 + live[a]] = s.v + (s.v + hi < thr ? hi : lo);
+        rest(a, 0, lo, hi);
+        const double v = w.v[a];
+        if (v + hi < thr || v + lo > thr) {  // side decided by the local bounds
+          out[c0 + w.id[a]] = v + (v + hi < thr ? hi : lo);
           continue;
         }
       }
-      if (nt > 0) (*tex_)[terms[0]].prefetch(s.f[0]);
-      live[kept++] = live[a];
+      if (nt > 0) (*tex_)[terms[0]].prefetch(w.f[0][a]);
+      w.sel[nsel++] = static_cast<std::uint32_t>(a);
     }
-    nlive = kept;
+    // Stage 3.
     for (std::size_t t = 0; t < nt; ++t) {
       const int i = terms[t];
       const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
       const noise::Texture3D& tex = (*tex_)[i];
-      kept = 0;
-      for (std::size_t a = 0; a < nlive; ++a) {
-        State& s = st[live[a]];
-        s.v += weight * tex.sample(s.f[t]);
+      std::size_t kept = 0;
+      for (std::size_t b = 0; b < nsel; ++b) {
+        const std::uint32_t a = w.sel[b];
+        double& v = w.v[a];
+        v += weight * tex.sample(w.f[t][a]);
         if (t + 1 == nt) {
-          out[c0 + live[a]] = s.v;  // every term added: exact
+          out[c0 + w.id[a]] = v;  // every term added: exact
           continue;
         }
         if (early_out) {
           double lo, hi;
-          rest(s, t + 1, lo, hi);
-          if (s.v + hi < thr || s.v + lo > thr) {  // side decided: a bound with the same side
-            out[c0 + live[a]] = s.v + (s.v + hi < thr ? hi : lo);
+          rest(a, t + 1, lo, hi);
+          if (v + hi < thr || v + lo > thr) {  // side decided: a bound with the same side
+            out[c0 + w.id[a]] = v + (v + hi < thr ? hi : lo);
             continue;
           }
         }
-        (*tex_)[terms[t + 1]].prefetch(s.f[t + 1]);
-        live[kept++] = live[a];
+        (*tex_)[terms[t + 1]].prefetch(w.f[t + 1][a]);
+        w.sel[kept++] = a;
       }
-      nlive = kept;
+      nsel = kept;
     }
-    for (std::size_t a = 0; a < nlive; ++a) out[c0 + live[a]] = st[live[a]].v;  // no terms at all
+    for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[w.sel[b]]] = w.v[w.sel[b]];  // no terms at all
   }
 }
 

@@ -8,6 +8,8 @@
 // sphere, V the horizontal wind as an Earth-fixed vector, with classical RK4 on the sphere
 // (each stage re-normalised onto it), so poles and the date line need no special case.
 // Propagation (animation) composes maps: D_{H+A}(x) = D_H(back_A(x)), integrating only A hours.
+#include <algorithm>
+#include <cmath>
 #include <glm/glm.hpp>
 
 #include "nephos/clouds/cube_map.hpp"
@@ -34,8 +36,34 @@ class DisplacementMap {
   bool is_identity() const { return upwind_.size() == 0; }
   /// The unit upwind direction of the unit direction `d`.
   earth::Vec3 upwind(const earth::Vec3& d) const {
-    if (is_identity()) return d;
-    return glm::normalize(earth::Vec3(upwind_.sample(d)));
+    earth::Vec3 u;
+    upwind(&d.x, &d.y, &d.z, 1, &u.x, &u.y, &u.z);
+    return u;
+  }
+  /// upwind() of n directions (x[i], y[i], z[i]) into (ux[i], uy[i], uz[i]); the arrays must
+  /// not overlap. A branch-free loop that vectorises; upwind(d) is this with n = 1, so the two
+  /// agree bit for bit.
+  void upwind(const double* x, const double* y, const double* z, std::size_t n, double* ux, double* uy,
+              double* uz) const {
+    if (is_identity()) {
+      std::copy(x, x + n, ux), std::copy(y, y + n, uy), std::copy(z, z + n, uz);
+      return;
+    }
+    using Cube = CubeMap<float>;
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
+    const float* t = &upwind_.data()[0].x;  // the texels' components, flat
+    const int size = upwind_.size();
+    const std::size_t row = 3 * static_cast<std::size_t>(size);
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) {
+      const Cube::Location l = Cube::locate(size, x[i], y[i], z[i]);
+      const std::size_t k = 3 * static_cast<std::size_t>(l.index);
+      const double vx = Cube::blend(l, t[k], t[k + 3], t[k + row], t[k + row + 3]);
+      const double vy = Cube::blend(l, t[k + 1], t[k + 4], t[k + row + 1], t[k + row + 4]);
+      const double vz = Cube::blend(l, t[k + 2], t[k + 5], t[k + row + 2], t[k + row + 5]);
+      const double inv_len = 1.0 / std::sqrt(vx * vx + vy * vy + vz * vz);
+      ux[i] = vx * inv_len, uy[i] = vy * inv_len, uz[i] = vz * inv_len;
+    }
   }
   const CubeMap<glm::vec3>& map() const { return upwind_; }
 

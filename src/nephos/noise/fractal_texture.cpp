@@ -164,7 +164,8 @@ void Texture3D::update_bounds() {
               lo = std::min(lo, v);
               hi = std::max(hi, v);
             }
-        block_bounds_[(static_cast<std::size_t>(bk) * nb + bj) * nb + bi] = {lo, hi};
+        block_bounds_[(static_cast<std::size_t>(bk) * nb + bj) * nb + bi] =
+            static_cast<std::uint32_t>(lo) | static_cast<std::uint32_t>(hi) << 16;
       }
 }
 

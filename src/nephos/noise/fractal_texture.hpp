@@ -73,9 +73,12 @@ class Texture3D {
   /// block grown by one voxel (the trilinear footprint's reach), widened by 1e-6 against the
   /// rounding of the interpolation. The bounds grid (at most 32^3 blocks) is small enough to stay in cache
   /// (128 KiB), so it decides most samples without the texture's cache misses.
-  Bounds bounds(const Footprint& f) const {
-    const auto b = block_bounds_[f.block];
-    return {b[0] * (1.0f / 65535.0f) - 1e-6f, b[1] * (1.0f / 65535.0f) + 1e-6f};
+  Bounds bounds(const Footprint& f) const { return block_bounds(f.block); }
+  /// bounds() of every footprint in block `block` (Footprint::block).
+  Bounds block_bounds(std::uint32_t block) const {
+    const std::uint32_t b = block_bounds_[block];  // min in the low half, max in the high half
+    return {static_cast<float>(b & 0xffffu) * (1.0f / 65535.0f) - 1e-6f,
+            static_cast<float>(b >> 16) * (1.0f / 65535.0f) + 1e-6f};
   }
   void prefetch_bounds(const Footprint& f) const { __builtin_prefetch(&block_bounds_[f.block]); }
   /// Recomputes the block bounds after data() was written (bake() does this).
@@ -111,7 +114,7 @@ class Texture3D {
  private:
   int n_ = 0;
   std::vector<std::uint16_t, HugePageAllocator<std::uint16_t>> data_;  // random access: huge pages
-  std::vector<std::array<std::uint16_t, 2>> block_bounds_;             // (min, max) per block
+  std::vector<std::uint32_t> block_bounds_;                            // min | max << 16 per block
   unsigned block_shift_ = 0;                                           // log2(voxels per block edge)
 };
 
