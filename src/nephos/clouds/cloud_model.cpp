@@ -221,16 +221,15 @@ constexpr std::size_t eval_chunk = 128;  // points evaluated together (working s
 
 // Texture footprints of a chunk of points, one array per field (noise::Texture3D::Footprint).
 struct Footprints {
-  alignas(64) std::uint32_t row00[eval_chunk], row10[eval_chunk], row01[eval_chunk], row11[eval_chunk];
-  alignas(64) std::uint32_t x0[eval_chunk], x1[eval_chunk], block[eval_chunk];
+  alignas(64) std::uint32_t x0[eval_chunk], x1[eval_chunk], y0[eval_chunk], y1[eval_chunk];
+  alignas(64) std::uint32_t z0[eval_chunk], z1[eval_chunk], block[eval_chunk];
   alignas(64) float tx[eval_chunk], ty[eval_chunk], tz[eval_chunk];
   void set(std::size_t a, const noise::Texture3D::Footprint& f) {
-    row00[a] = f.row00, row10[a] = f.row10, row01[a] = f.row01, row11[a] = f.row11;
-    x0[a] = f.x0, x1[a] = f.x1, block[a] = f.block;
+    x0[a] = f.x0, x1[a] = f.x1, y0[a] = f.y0, y1[a] = f.y1, z0[a] = f.z0, z1[a] = f.z1, block[a] = f.block;
     tx[a] = f.tx, ty[a] = f.ty, tz[a] = f.tz;
   }
   noise::Texture3D::Footprint operator[](std::size_t a) const {
-    return {row00[a], row10[a], row01[a], row11[a], x0[a], x1[a], block[a], tx[a], ty[a], tz[a]};
+    return {x0[a], x1[a], y0[a], y1[a], z0[a], z1[a], block[a], tx[a], ty[a], tz[a]};
   }
 };
 
@@ -360,7 +359,7 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
           continue;
         }
       }
-      if (nt > 0) (*tex_)[terms[0]].prefetch(w.f[0][a]);
+      for (std::size_t t = 0; t < nt; ++t) (*tex_)[terms[t]].prefetch(w.f[t][a]);
       w.sel[nsel++] = static_cast<std::uint32_t>(a);
     }
     // Stage 3.
@@ -385,7 +384,6 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
             continue;
           }
         }
-        (*tex_)[terms[t + 1]].prefetch(w.f[t + 1][a]);
         w.sel[kept++] = a;
       }
       nsel = kept;

@@ -132,13 +132,19 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
   Texture3D t(n);
   std::uint16_t* d = t.data();
 #pragma omp parallel for schedule(static)
-  for (std::size_t q = 0; q < count; ++q) {
-    float v = (raw[q] - lo) / span;
-    if (spec.invert) v = 1.0f - v;
-    d[q] = static_cast<std::uint16_t>(std::lround(v * 65535.0f));
-  }
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        float v = (raw[(static_cast<std::size_t>(k) * n + j) * n + i] - lo) / span;
+        if (spec.invert) v = 1.0f - v;
+        d[t.index(i, j, k)] = static_cast<std::uint16_t>(std::lround(v * 65535.0f));
+      }
   t.update_bounds();
   return t;
+}
+
+void Texture3D::throw_bad_size(int n) {
+  throw ValueError(fmt::format("texture size must be a power of two >= 4, got {}", n), {.key = "texture"});
 }
 
 void Texture3D::update_bounds() {
@@ -159,8 +165,7 @@ void Texture3D::update_bounds() {
             for (int i = 0; i <= b; ++i) {
               const unsigned x = static_cast<unsigned>(bi * b + i) & mask, y = static_cast<unsigned>(bj * b + j) & mask,
                              z = static_cast<unsigned>(bk * b + k) & mask;
-              const std::uint16_t v =
-                  data_[(static_cast<std::size_t>(z) * static_cast<unsigned>(n_) + y) * static_cast<unsigned>(n_) + x];
+              const std::uint16_t v = data_[std::size_t{offset_x(x)} + offset_y(y) + offset_z(z)];
               lo = std::min(lo, v);
               hi = std::max(hi, v);
             }

@@ -22,21 +22,37 @@ struct FractalSpec {
   bool invert = false;       ///< 1 - value (Worley: bright cell centres, dark borders)
 };
 
-/// A periodic N x N x N texture of values in [0, 1], stored as uint16.
+/// A periodic N x N x N texture of values in [0, 1], stored as uint16 in 4 x 4 x 4 bricks
+/// (128 bytes, two cache lines: z = 0-1 and z = 2-3 of the brick). A trilinear lookup reads
+/// 2.3 cache lines on average instead of the 4 rows of a linear layout, which matters because
+/// at kilometre pixel spacing every lookup misses the caches.
 class Texture3D {
  public:
   Texture3D() = default;
-  explicit Texture3D(int n) : n_(n), data_(static_cast<std::size_t>(n) * n * n) {}
+  explicit Texture3D(int n) : n_(n), data_(static_cast<std::size_t>(n) * n * n) {
+    if (n < 4 || (n & (n - 1)) != 0) throw_bad_size(n);
+  }
   int size() const { return n_; }
   std::size_t bytes() const { return data_.size() * sizeof(std::uint16_t); }
+
+  /// Offset of voxel (i, j, k) in data(): the sum of one part per axis (see Footprint).
+  std::uint32_t offset_x(unsigned i) const { return (i >> 2) * 64u + (i & 3u); }
+  std::uint32_t offset_y(unsigned j) const { return (j >> 2) * 64u * (static_cast<unsigned>(n_) >> 2) + (j & 3u) * 4u; }
+  std::uint32_t offset_z(unsigned k) const {
+    const unsigned nb = static_cast<unsigned>(n_) >> 2;
+    return (k >> 2) * 64u * nb * nb + (k & 3u) * 16u;
+  }
+  std::size_t index(int i, int j, int k) const {
+    return std::size_t{offset_x(static_cast<unsigned>(i))} + offset_y(static_cast<unsigned>(j)) +
+           offset_z(static_cast<unsigned>(k));
+  }
 
   /// The voxels and weights one trilinear lookup uses: computed once, then prefetched and
   /// sampled (batched ray marching issues the prefetches of many lookups before the first
   /// sample, so their cache misses overlap instead of queueing one after another).
   struct Footprint {
-    std::uint32_t row00, row10, row01, row11;  ///< offsets of voxel rows (y0,z0) (y1,z0) (y0,z1) (y1,z1)
-    std::uint32_t x0, x1;
-    std::uint32_t block;  ///< index into the block bounds (see bounds())
+    std::uint32_t x0, x1, y0, y1, z0, z1;  ///< per-axis offsets of the two voxel planes (offset_x() ...)
+    std::uint32_t block;                   ///< index into the block bounds (see bounds())
     float tx, ty, tz;
   };
   /// Footprint at texture coordinates (u, v, w) in tile units: 1.0 = one tile; any real value
@@ -46,21 +62,13 @@ class Texture3D {
     const float x = u * fn, y = v * fn, z = w * fn;
     const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
     const unsigned mask = static_cast<unsigned>(n_ - 1);  // n is a power of two
-    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask;
+    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask, x1 = (x0 + 1) & mask;
     const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & mask, y1 = (y0 + 1) & mask;
     const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & mask, z1 = (z0 + 1) & mask;
-    const unsigned sn = static_cast<unsigned>(n_), nb = sn >> block_shift_;
+    const unsigned nb = static_cast<unsigned>(n_) >> block_shift_;
     const unsigned block = ((z0 >> block_shift_) * nb + (y0 >> block_shift_)) * nb + (x0 >> block_shift_);
-    return {(z0 * sn + y0) * sn,
-            (z0 * sn + y1) * sn,
-            (z1 * sn + y0) * sn,
-            (z1 * sn + y1) * sn,
-            x0,
-            (x0 + 1) & mask,
-            block,
-            x - fx,
-            y - fy,
-            z - fz};
+    return {offset_x(x0), offset_x(x1), offset_y(y0), offset_y(y1), offset_z(z0),
+            offset_z(z1), block,        x - fx,       y - fy,       z - fz};
   }
   /// Blocks per axis of the bounds grid: 32 (a 128 KiB table whatever the texture size).
   static constexpr int bounds_grid = 32;
@@ -83,35 +91,37 @@ class Texture3D {
   void prefetch_bounds(const Footprint& f) const { __builtin_prefetch(&block_bounds_[f.block]); }
   /// Recomputes the block bounds after data() was written (bake() does this).
   void update_bounds();
-  /// Asks the caches for the (at most eight) lines a sample at `f` reads; no effect on results.
+  /// Asks the caches for the lines a sample at `f` reads; no effect on results. The x pair
+  /// shares a line unless it crosses a brick (1 in 4), so the four (y, z) corners at x0 name
+  /// every line but those.
   void prefetch(const Footprint& f) const {
     const std::uint16_t* d = data_.data();
-    __builtin_prefetch(d + f.row00 + f.x0);
-    __builtin_prefetch(d + f.row10 + f.x0);
-    __builtin_prefetch(d + f.row01 + f.x0);
-    __builtin_prefetch(d + f.row11 + f.x0);
+    __builtin_prefetch(d + f.x0 + f.y0 + f.z0);
+    __builtin_prefetch(d + f.x0 + f.y1 + f.z0);
+    __builtin_prefetch(d + f.x0 + f.y0 + f.z1);
+    __builtin_prefetch(d + f.x0 + f.y1 + f.z1);
   }
   /// Trilinear value at footprint `f`, in [0, 1].
   float sample(const Footprint& f) const {
     const std::uint16_t* d = data_.data();
-    auto row = [&](std::uint32_t r) {
-      const float a = static_cast<float>(d[r + f.x0]), b = static_cast<float>(d[r + f.x1]);
+    auto row = [&](std::uint32_t yz) {
+      const float a = static_cast<float>(d[yz + f.x0]), b = static_cast<float>(d[yz + f.x1]);
       return a + f.tx * (b - a);
     };
-    const float c00 = row(f.row00), c10 = row(f.row10), c01 = row(f.row01), c11 = row(f.row11);
+    const float c00 = row(f.y0 + f.z0), c10 = row(f.y1 + f.z0), c01 = row(f.y0 + f.z1), c11 = row(f.y1 + f.z1);
     const float c0 = c00 + f.ty * (c10 - c00), c1 = c01 + f.ty * (c11 - c01);
     return (c0 + f.tz * (c1 - c0)) * (1.0f / 65535.0f);
   }
   /// Trilinear value at texture coordinates (u, v, w) (see footprint()).
   float sample(float u, float v, float w) const { return sample(footprint(u, v, w)); }
   /// Value of voxel (i, j, k) in [0, 1].
-  float voxel(int i, int j, int k) const {
-    return data_[(static_cast<std::size_t>(k) * n_ + j) * n_ + i] * (1.0f / 65535.0f);
-  }
+  float voxel(int i, int j, int k) const { return data_[index(i, j, k)] * (1.0f / 65535.0f); }
+  /// The voxels in brick order (index()).
   std::uint16_t* data() { return data_.data(); }
   const std::uint16_t* data() const { return data_.data(); }
 
  private:
+  [[noreturn]] static void throw_bad_size(int n);
   int n_ = 0;
   std::vector<std::uint16_t, HugePageAllocator<std::uint16_t>> data_;  // random access: huge pages
   std::vector<std::uint32_t> block_bounds_;                            // min | max << 16 per block
