@@ -108,8 +108,12 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     // nothing more.
     const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d[i]);
     const earth::Vec3 b = glm::normalize(o + path.t_at(path.length()) * d[i]);
-    const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-    const int m = 1 + static_cast<int>(arc / shell.skip_radius_rad());
+    // Arc between the path's ends: most paths (steep views) are shorter than one skip radius,
+    // which the chord c bounds without trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)).
+    const double radius = shell.skip_radius_rad(), c2 = glm::dot(a - b, a - b);
+    const bool short_arc = c2 < 1 && c2 < radius * radius * (1 - 0.25 * c2);
+    const double arc = short_arc ? 0.0 : std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+    const int m = 1 + static_cast<int>(arc / radius);
     bool possible = false;
     for (int j = 0; j <= m && !possible; ++j)
       possible = shell.may_have_cloud(o + path.t_at(path.length() * j / m) * d[i]);
@@ -119,8 +123,22 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   const double thr = shell.threshold();
   std::vector<earth::Vec3> pts(rays.size() * 4);
   std::vector<double> vals(pts.size());
+  // The rays' paths and directions as arrays, so that the sample points of a step come from
+  // one vectorised loop (Path::t_at, same arithmetic).
+  const std::size_t nr = rays.size();
+  std::vector<double> a0(nr), la(nr), b0(nr), ds(nr), dx(nr), dy(nr), dz(nr);
+  for (std::size_t j = 0; j < nr; ++j) {
+    const Ray& r = rays[j];
+    a0[j] = r.path.a0, la[j] = r.path.a1 - r.path.a0, b0[j] = r.path.b0, ds[j] = r.ds;
+    dx[j] = d[r.i].x, dy[j] = d[r.i].y, dz[j] = d[r.i].z;
+  }
   for (int k = 0; k <= steps; ++k) {
-    for (std::size_t j = 0; j < rays.size(); ++j) pts[j] = o + rays[j].path.t_at(k * rays[j].ds) * d[rays[j].i];
+#pragma omp simd
+    for (std::size_t j = 0; j < nr; ++j) {
+      const double s = k * ds[j];
+      const double t = s <= la[j] ? a0[j] + s : b0[j] + (s - la[j]);
+      pts[j] = earth::Vec3{o.x + t * dx[j], o.y + t * dy[j], o.z + t * dz[j]};
+    }
     shell.classify(pts.data(), rays.size(), vals.data());
     for (std::size_t j = 0; j < rays.size(); ++j) {
       Ray& r = rays[j];
