@@ -253,15 +253,16 @@ struct EvalWork {
 
 void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
   // Staged over chunks of points; the geometric stages are branch-free loops over arrays that
-  // the compiler vectorises (AVX-512: 8 points per instruction), the texture fetches of many
-  // points overlap:
+  // the compiler vectorises (AVX-512: 8 points per instruction), and the texture fetches of a
+  // chunk's points are independent, so out-of-order execution overlaps their cache misses
+  // (software prefetching measured no faster):
   //  1. direction, radius, the mask at its upwind point and the altitude barriers; points
   //     that cannot reach the level set leave;
   //  2. the upwind points and texture footprints of every fractal term and, for classify(),
   //     the terms' bounds over the footprints' blocks (a small table that stays in cache):
   //     points whose side the bounds decide leave without touching the textures;
-  //  3. per term, in order, a prefetch of the next term's texels and the sample, leaving as
-  //     soon as the bounds of the terms not yet added decide the side.
+  //  3. per term, in order, the sample, leaving as soon as the bounds of the terms not yet
+  //     added decide the side.
   // Each point sees exactly the arithmetic of a one-point call, so results do not depend on n.
   const double thr = p_.threshold;
   // The terms with a non-zero weight, in evaluation order.
@@ -359,7 +360,6 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
           continue;
         }
       }
-      for (std::size_t t = 0; t < nt; ++t) (*tex_)[terms[t]].prefetch(w.f[t][a]);
       w.sel[nsel++] = static_cast<std::uint32_t>(a);
     }
     // Stage 3.

@@ -47,9 +47,8 @@ class Texture3D {
            offset_z(static_cast<unsigned>(k));
   }
 
-  /// The voxels and weights one trilinear lookup uses: computed once, then prefetched and
-  /// sampled (batched ray marching issues the prefetches of many lookups before the first
-  /// sample, so their cache misses overlap instead of queueing one after another).
+  /// The voxels and weights one trilinear lookup uses: computed once (in vectorised loops over
+  /// many points), then used for the block bounds and the sample.
   struct Footprint {
     std::uint32_t x0, x1, y0, y1, z0, z1;  ///< per-axis offsets of the two voxel planes (offset_x() ...)
     std::uint32_t block;                   ///< index into the block bounds (see bounds())
@@ -88,19 +87,8 @@ class Texture3D {
     return {static_cast<float>(b & 0xffffu) * (1.0f / 65535.0f) - 1e-6f,
             static_cast<float>(b >> 16) * (1.0f / 65535.0f) + 1e-6f};
   }
-  void prefetch_bounds(const Footprint& f) const { __builtin_prefetch(&block_bounds_[f.block]); }
   /// Recomputes the block bounds after data() was written (bake() does this).
   void update_bounds();
-  /// Asks the caches for the lines a sample at `f` reads; no effect on results. The x pair
-  /// shares a line unless it crosses a brick (1 in 4), so the four (y, z) corners at x0 name
-  /// every line but those.
-  void prefetch(const Footprint& f) const {
-    const std::uint16_t* d = data_.data();
-    __builtin_prefetch(d + f.x0 + f.y0 + f.z0);
-    __builtin_prefetch(d + f.x0 + f.y1 + f.z0);
-    __builtin_prefetch(d + f.x0 + f.y0 + f.z1);
-    __builtin_prefetch(d + f.x0 + f.y1 + f.z1);
-  }
   /// Trilinear value at footprint `f`, in [0, 1].
   float sample(const Footprint& f) const {
     const std::uint16_t* d = data_.data();
