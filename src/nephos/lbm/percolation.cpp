@@ -164,38 +164,48 @@ std::vector<std::uint8_t> Percolation::projected_cloud() const {
   return out;
 }
 
-double perimeter_area_dimension(const std::vector<std::uint8_t>& field, int nx, int ny, int min_area) {
-  std::vector<int> label(field.size(), -1);
-  std::vector<double> la, lp;
+std::vector<ClusterSize> cluster_sizes(const std::vector<std::uint8_t>& field, int nx, int ny) {
+  std::vector<int> label(field.size(), -1);    // cluster of each cloud site
+  std::vector<int> counted(field.size(), -1);  // last cluster whose perimeter counted this clear site
+  std::vector<ClusterSize> out;
   std::vector<std::size_t> stack;
+  int id = 0;
   for (std::size_t start = 0; start < field.size(); ++start) {
     if (!field[start] || label[start] >= 0) continue;
-    long area = 0, perim = 0;
+    ClusterSize c{0, 0};
     stack.assign(1, start);
-    label[start] = 1;
+    label[start] = id;
     while (!stack.empty()) {
-      const std::size_t c = stack.back();
+      const std::size_t s = stack.back();
       stack.pop_back();
-      ++area;
-      const int x = static_cast<int>(c % static_cast<std::size_t>(nx)),
-                y = static_cast<int>(c / static_cast<std::size_t>(nx));
+      ++c.area;
+      const int x = static_cast<int>(s % static_cast<std::size_t>(nx)),
+                y = static_cast<int>(s / static_cast<std::size_t>(nx));
       const int nbx[4] = {(x + 1) % nx, (x + nx - 1) % nx, x, x};
       const int nby[4] = {y, y, (y + 1) % ny, (y + ny - 1) % ny};
       for (int q = 0; q < 4; ++q) {
         const std::size_t nb = static_cast<std::size_t>(nby[q]) * nx + nbx[q];
         if (!field[nb]) {
-          ++perim;  // an edge between cloud and clear
+          if (counted[nb] != id) counted[nb] = id, ++c.perimeter;  // a perimeter site, counted once
         } else if (label[nb] < 0) {
-          label[nb] = 1;
+          label[nb] = id;
           stack.push_back(nb);
         }
       }
     }
-    if (area >= min_area) {
-      la.push_back(std::log(static_cast<double>(area)));
-      lp.push_back(std::log(static_cast<double>(perim)));
-    }
+    out.push_back(c);
+    ++id;
   }
+  return out;
+}
+
+double perimeter_area_dimension(const std::vector<std::uint8_t>& field, int nx, int ny, int min_area) {
+  std::vector<double> la, lp;
+  for (const ClusterSize& c : cluster_sizes(field, nx, ny))
+    if (c.area >= min_area) {
+      la.push_back(std::log(static_cast<double>(c.area)));
+      lp.push_back(std::log(static_cast<double>(c.perimeter)));
+    }
   if (la.size() < 10) return std::numeric_limits<double>::quiet_NaN();
   double ma = 0, mp = 0;
   for (std::size_t i = 0; i < la.size(); ++i) ma += la[i], mp += lp[i];

@@ -61,9 +61,21 @@ class Percolation {
   std::vector<std::uint64_t> hum_, act_, cld_, next_act_, next_hum_;
 };
 
+/// Site count (area) and perimeter-site count (clear sites with at least one 4-neighbour in
+/// the cluster, each counted once) of one cluster of a 2D binary field.
+struct ClusterSize {
+  long area, perimeter;
+};
+/// The 4-connected clusters of a periodic nx x ny field (row-major y, x), in order of their
+/// first site.
+std::vector<ClusterSize> cluster_sizes(const std::vector<std::uint8_t>& field, int nx, int ny);
+
 /// Perimeter-area fractal dimension of the clusters of a 2D binary field (4-connectivity,
 /// periodic): least-squares slope of log P against log A over clusters with A >= min_area,
-/// D = 2 * slope (P ~ A^(D/2); Lovejoy 1982). Returns NaN with fewer than 10 clusters.
+/// D = 2 * slope (P ~ A^(D/2); Lovejoy 1982). A is the cluster's site count and P its
+/// perimeter-site count, the clear sites with at least one neighbour in the cluster: the
+/// lattice definition of Nagel & Raschke (1992) and Schneider & Woehlke (1992), whose D the
+/// tests compare with. Returns NaN with fewer than 10 clusters.
 double perimeter_area_dimension(const std::vector<std::uint8_t>& field, int nx, int ny, int min_area = 4);
 
 }  // namespace nephos::lbm
