@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 #include <chrono>
 #include <cstdlib>
+#include <limits>
+#include <string>
 
 #include "nephos/core/error.hpp"
 
@@ -28,15 +30,17 @@ int mpi_size() {
   return s;
 }
 
-WaterResult run_water_mpi(const lbm::Grid3& grid, const lbm::WaterModelParams& params, std::uint64_t seed,
-                          long iterations) {
+WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelParams& params, std::uint64_t seed,
+                          const WaterMpiOptions& o) {
   const int rank = mpi_rank(), size = mpi_size();
+  const lbm::Grid3 grid = o.resume.empty() ? fresh_grid : lbm::WaterModel::checkpoint_grid(o.resume);
   auto begin = [&](int r) { return static_cast<int>(static_cast<long>(grid.ny) * r / size); };
   const int y0 = begin(rank), y1 = begin(rank + 1);
   if (grid.ny / size < 2)
     throw ValueError(fmt::format("{} ranks need at least {} rows in y", size, 2 * size), {.key = "--grid"});
-  lbm::WaterModel model(grid, params, y0, y1);
-  model.initialise(lbm::make_silos(grid, params, seed), seed);
+  lbm::WaterModel model =
+      o.resume.empty() ? lbm::WaterModel(grid, params, y0, y1) : lbm::WaterModel::load_slab(o.resume, y0, y1);
+  if (o.resume.empty()) model.initialise(lbm::make_silos(grid, params, seed), seed);
   const int up = (rank + 1) % size, down = (rank + size - 1) % size;
   model.set_exchange([&](lbm::WaterModel& m, lbm::WaterModel::Exchange kind) {
     const auto low = m.pack_row(kind, m.owned_begin()), high = m.pack_row(kind, m.owned_end() - 1);
@@ -49,21 +53,67 @@ WaterResult run_water_mpi(const lbm::Grid3& grid, const lbm::WaterModelParams& p
     m.unpack_row(kind, 0, from_below);
     m.unpack_row(kind, m.local_ny() - 1, from_above);
   });
-  const auto t0 = std::chrono::steady_clock::now();
-  for (long t = 0; t < iterations; ++t) {
-    model.step();
-    if (model.steps_done() % 10 == 0 || t + 1 == iterations) {
-      std::string what;
-      std::size_t cell = 0;
-      const int ok = model.check(what, cell) ? 1 : 0;
-      int all = 0;
-      MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-      if (!all)
-        throw NumericError(fmt::format("step {}: a density left its bounds{} (rank {}, rows {}..{})",
-                                       model.steps_done(), ok ? " on another rank" : ": " + what, rank, y0, y1 - 1));
+  // Checkpoints: every rank's owned populations gathered on rank 0, written as one file.
+  const long row_values = 2L * 19 * grid.nz * grid.nx;
+  if (row_values * grid.ny > std::numeric_limits<int>::max())
+    throw ValueError(fmt::format("lattice {} too large for gathered MPI checkpoints", grid.describe()),
+                     {.key = "--checkpoint-every"});
+  auto checkpoint = [&](const std::filesystem::path& path) {
+    const std::vector<float> mine = model.pack_owned();
+    std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
+    for (int r = 0; r < size; ++r) {
+      counts[static_cast<std::size_t>(r)] = static_cast<int>((begin(r + 1) - begin(r)) * row_values);
+      displs[static_cast<std::size_t>(r)] = static_cast<int>(begin(r) * row_values);
     }
+    std::vector<float> rows(rank == 0 ? static_cast<std::size_t>(row_values * grid.ny) : 0);
+    MPI_Gatherv(mine.data(), static_cast<int>(mine.size()), MPI_FLOAT, rows.data(), counts.data(), displs.data(),
+                MPI_FLOAT, 0, MPI_COMM_WORLD);
+    int ok = 1;
+    std::string error;
+    if (rank == 0) try {
+        lbm::WaterModel::save_gathered(path, grid, params, model.steps_done(), rows);
+      } catch (const std::exception& e) {
+        ok = 0, error = e.what();
+      }
+    MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (!ok) throw IoError(rank == 0 ? error : "rank 0 could not write the checkpoint", {.file = path.string()});
+  };
+  // The first rank that finds a bad density describes it (global cell coordinates); every
+  // rank writes its part of the failure checkpoint and throws the same message.
+  auto check = [&] {
+    std::string what;
+    std::size_t cell = 0;
+    const int bad = model.check(what, cell) ? size : rank;
+    int first_bad = size;
+    MPI_Allreduce(&bad, &first_bad, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (first_bad == size) return;
+    std::string message;
+    if (rank == first_bad) {
+      const std::size_t nx = static_cast<std::size_t>(grid.nx), own = static_cast<std::size_t>(y1 - y0);
+      message = fmt::format("step {}: {} at cell (x={}, y={}, z={})", model.steps_done(), what, cell % nx,
+                            y0 + static_cast<long>(cell / nx % own), cell / (nx * own));
+    }
+    int length = static_cast<int>(message.size());
+    MPI_Bcast(&length, 1, MPI_INT, first_bad, MPI_COMM_WORLD);
+    message.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(message.data(), length, MPI_CHAR, first_bad, MPI_COMM_WORLD);
+    const auto ck = o.out_dir / "checkpoint_failed.bin";
+    checkpoint(ck);
+    throw NumericError(fmt::format("{}; state saved to {}", message, ck.string()));
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const long first = model.steps_done();
+  while (model.steps_done() < o.iterations) {
+    model.step();
+    if (model.steps_done() % 10 == 0) check();
+    if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0)
+      checkpoint(o.out_dir / "checkpoint.bin");
   }
+  check();
   WaterResult result;
+  result.grid = grid;
+  result.first_step = first;
+  result.steps_done = model.steps_done();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // Gather the owned blocks ([z][y_own][x] per rank) on rank 0 and put them in place.
   for (int c = 0; c < 2; ++c) {

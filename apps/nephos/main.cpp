@@ -267,17 +267,18 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   long done = 0, steps_total = 0;
   double t_water = 0;
   if (app::mpi_launched()) {
-    if (!o.resume.empty() || o.checkpoint_every > 0)
-      throw ValueError("checkpoints are not supported with several MPI processes yet", {.key = "--checkpoint-every"});
-    grid = lbm::Grid3::parse(o.grid);
-    auto r = app::run_water_mpi(grid, params, g.seed, o.iterations);
+    ensure_directory(out);  // on every rank: a failure must stop all of them, not leave them waiting
+    auto r = app::run_water_mpi(o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::Grid3{}, params, g.seed,
+                                {o.iterations, o.checkpoint_every, o.resume, out});
     if (app::mpi_rank() != 0) return 0;  // rank 0 runs the remaining stages and writes the outputs
+    grid = r.grid;
     vapour = std::move(r.vapour);
     temperature = std::move(r.temperature);
-    done = steps_total = o.iterations;
+    done = r.steps_done - r.first_step;
+    steps_total = r.steps_done;
     t_water = r.seconds;
-    ensure_directory(out);
-    spdlog::info("water model on {} MPI processes", app::mpi_size());
+    spdlog::info("water model on {} MPI processes{}", app::mpi_size(),
+                 o.resume.empty() ? "" : fmt::format(", resumed at step {} from {}", r.first_step, o.resume));
   } else {
     lbm::WaterModel model =
         o.resume.empty() ? lbm::WaterModel(lbm::Grid3::parse(o.grid), params) : lbm::WaterModel::load(o.resume);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -395,44 +396,156 @@ bool WaterModel::check(std::string& what, std::size_t& cell) const {
 }
 
 namespace {
-constexpr char magic[16] = "NEPHOS-LBM-CK1";
+// CK2: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
+// equal states could give different files).
+constexpr char magic[16] = "NEPHOS-LBM-CK2";
+constexpr int param_count = 18;
+
+std::array<double, param_count> params_to_array(const WaterModelParams& p) {
+  return {p.rho10,
+          p.rho20,
+          p.rest_fraction,
+          p.xi_vapour,
+          p.xi_temperature,
+          p.g12,
+          p.g22,
+          p.buoyancy,
+          p.buoyancy_reference,
+          p.temperature_bottom,
+          p.temperature_top,
+          static_cast<double>(p.silos),
+          p.silo_radius_min,
+          p.silo_radius_max,
+          p.silo_height_min,
+          p.silo_height_max,
+          p.vapour_background,
+          p.periodic_z ? 1.0 : 0.0};
 }
 
-void WaterModel::save(const std::filesystem::path& path) const {
+WaterModelParams params_from_array(const std::array<double, param_count>& a) {
+  WaterModelParams p;
+  p.rho10 = a[0], p.rho20 = a[1], p.rest_fraction = a[2], p.xi_vapour = a[3], p.xi_temperature = a[4];
+  p.g12 = a[5], p.g22 = a[6], p.buoyancy = a[7], p.buoyancy_reference = a[8];
+  p.temperature_bottom = a[9], p.temperature_top = a[10], p.silos = static_cast<int>(a[11]);
+  p.silo_radius_min = a[12], p.silo_radius_max = a[13], p.silo_height_min = a[14], p.silo_height_max = a[15];
+  p.vapour_background = a[16], p.periodic_z = a[17] != 0;
+  return p;
+}
+
+// The checkpoint file: magic, (nx, ny, nz, step), the parameters, then both components'
+// populations of the whole lattice, direction-major (f[i * cells + cell]).
+struct CheckpointHeader {
+  Grid3 grid;
+  long step;
+  WaterModelParams params;
+};
+
+void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h, const float* f0, const float* f1) {
   AtomicFile out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
     if (!os) throw IoError("cannot open checkpoint for writing", {.file = path.string()});
     os.write(magic, sizeof magic);
-    const std::int64_t hdr[4] = {g_.nx, g_.ny, g_.nz, step_};
+    const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
     os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
-    os.write(reinterpret_cast<const char*>(&p_), sizeof p_);
-    for (int c = 0; c < 2; ++c)
-      os.write(reinterpret_cast<const char*>(f_[c].data()), static_cast<std::streamsize>(f_[c].size() * sizeof(float)));
+    const auto params = params_to_array(h.params);
+    os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
+    const auto bytes = static_cast<std::streamsize>(d3q19::q * h.grid.cells() * sizeof(float));
+    os.write(reinterpret_cast<const char*>(f0), bytes);
+    os.write(reinterpret_cast<const char*>(f1), bytes);
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = path.string()});
   }
   out.commit();
 }
 
-WaterModel WaterModel::load(const std::filesystem::path& path) {
-  std::ifstream is(path, std::ios::binary);
+// Reads the header and leaves `is` at the populations.
+CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem::path& path) {
   if (!is) throw IoError("cannot open checkpoint", {.file = path.string()});
   char m[16] = {};
   is.read(m, sizeof m);
+  if (std::memcmp(m, "NEPHOS-LBM-CK1", 15) == 0)
+    throw FormatError("checkpoint from an older nephos (format CK1): rerun the simulation", {.file = path.string()});
   if (std::memcmp(m, magic, sizeof magic) != 0)
     throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
   std::int64_t hdr[4];
   is.read(reinterpret_cast<char*>(hdr), sizeof hdr);
-  WaterModelParams p;
-  is.read(reinterpret_cast<char*>(&p), sizeof p);
-  if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096)
+  std::array<double, param_count> params{};
+  is.read(reinterpret_cast<char*>(params.data()), sizeof params);
+  const WaterModelParams p = params_from_array(params);
+  if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
     throw FormatError("corrupt checkpoint header", {.file = path.string()});
-  WaterModel w(Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, p);
-  w.step_ = hdr[3];
+  return {Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, hdr[3], p};
+}
+
+}  // namespace
+
+void WaterModel::save(const std::filesystem::path& path) const {
+  if (halo_ != 0)
+    throw ValueError("a slab cannot save itself: gather pack_owned() of every slab and call save_gathered()");
+  write_checkpoint(path, {g_, step_, p_}, f_[0].data(), f_[1].data());
+}
+
+WaterModel WaterModel::load(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  WaterModel w(h.grid, h.params);
+  w.step_ = h.step;
   for (int c = 0; c < 2; ++c)
     is.read(reinterpret_cast<char*>(w.f_[c].data()), static_cast<std::streamsize>(w.f_[c].size() * sizeof(float)));
   if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
   return w;
+}
+
+Grid3 WaterModel::checkpoint_grid(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  return read_checkpoint_header(is, path).grid;
+}
+
+WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin, int y_end) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  WaterModel w(h.grid, h.params, y_begin, y_end);
+  w.step_ = h.step;
+  // Read one direction of one component at a time (a whole-lattice plane of populations) and
+  // keep the slab's rows: memory stays at one plane beyond the slab.
+  const std::size_t N = h.grid.cells(), n = w.g_.cells();
+  std::vector<float> plane(N);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i) {
+      is.read(reinterpret_cast<char*>(plane.data()), static_cast<std::streamsize>(N * sizeof(float)));
+      if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+      for (int z = 0; z < h.grid.nz; ++z)
+        for (int y = w.owned_begin(); y < w.owned_end(); ++y)
+          std::copy_n(plane.data() + h.grid.index(0, w.global_y(y), z), h.grid.nx,
+                      w.f_[c].data() + static_cast<std::size_t>(i) * n + w.g_.index(0, y, z));
+    }
+  return w;
+}
+
+std::vector<float> WaterModel::pack_owned() const {
+  std::vector<float> out;
+  for (int y = owned_begin(); y < owned_end(); ++y) {
+    const std::vector<float> r = pack_row(Exchange::populations, y);
+    out.insert(out.end(), r.begin(), r.end());
+  }
+  return out;
+}
+
+void WaterModel::save_gathered(const std::filesystem::path& path, const Grid3& global, const WaterModelParams& params,
+                               long step, const std::vector<float>& rows) {
+  // rows: pack_row(populations) of every global row in y order: per row, c, i, z, then x.
+  const std::size_t N = global.cells(), row = 2 * d3q19::q * static_cast<std::size_t>(global.nz) * global.nx;
+  if (rows.size() != row * static_cast<std::size_t>(global.ny))
+    throw ValueError(fmt::format("gathered checkpoint has {} values, expected {}", rows.size(), row * global.ny));
+  std::vector<float> f[2] = {std::vector<float>(d3q19::q * N), std::vector<float>(d3q19::q * N)};
+  for (int y = 0; y < global.ny; ++y) {
+    const float* r = rows.data() + static_cast<std::size_t>(y) * row;
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i)
+        for (int z = 0; z < global.nz; ++z, r += global.nx)
+          std::copy_n(r, global.nx, f[c].data() + static_cast<std::size_t>(i) * N + global.index(0, y, z));
+  }
+  write_checkpoint(path, {global, step, params}, f[0].data(), f[1].data());
 }
 
 }  // namespace nephos::lbm

@@ -97,9 +97,21 @@ class WaterModel {
   bool check(std::string& what, std::size_t& cell) const;
 
   /// Checkpoint: the full state, bit-exact (atomic write). Resuming gives results identical to
-  /// an uninterrupted run.
+  /// an uninterrupted run. One file format whatever the process count: a run may resume on a
+  /// different number of MPI processes.
   void save(const std::filesystem::path& path) const;
   static WaterModel load(const std::filesystem::path& path);
+  /// The lattice size a checkpoint holds (reads its header only).
+  static Grid3 checkpoint_grid(const std::filesystem::path& path);
+  /// The slab rows y_begin <= y < y_end of a checkpoint (see the slab constructor).
+  static WaterModel load_slab(const std::filesystem::path& path, int y_begin, int y_end);
+  /// The populations of the owned rows, pack_row(populations) of each in y order: what a slab
+  /// contributes to a checkpoint.
+  std::vector<float> pack_owned() const;
+  /// Writes the checkpoint of the whole lattice from the pack_owned() of every slab,
+  /// concatenated in y order.
+  static void save_gathered(const std::filesystem::path& path, const Grid3& global, const WaterModelParams& params,
+                            long step, const std::vector<float>& rows);
 
  private:
   std::vector<float> density(int component) const;
