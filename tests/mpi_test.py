@@ -58,6 +58,26 @@ class Mpi(unittest.TestCase):
                 for v in ("vapour_density", "temperature", "light"):
                     self.assertTrue(np.array_equal(ref[v][:], got[v][:]), f"{case}: {v}")
 
+    def test_bad_density_stops_every_rank_with_a_checkpoint(self):
+        # An unstable configuration (buoyancy 1000) blows up within 10 steps: every rank stops
+        # with the message naming step and cell, exit code 2, and the failure checkpoint equals
+        # the single-process one byte for byte.
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            (d / "bad.toml").write_text("[water]\nbuoyancy = 1000.0\n")
+            args = ["lbm", "--grid", "24x20x16", "--iterations", "30", "--percolation", "0", "--config",
+                    str(d / "bad.toml")]
+            one = subprocess.run([NEPHOS, "-q", *args, "--out", str(d / "one")], capture_output=True, text=True,
+                                 timeout=300)
+            two = subprocess.run(["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", "2", NEPHOS, "-q", *args,
+                                  "--out", str(d / "two")], capture_output=True, text=True, timeout=300)
+            for r in (one, two):
+                self.assertNotEqual(r.returncode, 0)
+                self.assertRegex(r.stderr, r"step 10: .* at cell \(x=\d+, y=\d+, z=\d+\); state saved")
+            self.assertEqual((d / "one" / "checkpoint_failed.bin").read_bytes(),
+                             (d / "two" / "checkpoint_failed.bin").read_bytes())
+            self.assertFalse((d / "two" / "lbm.nc").exists())
+
 
 if __name__ == "__main__":
     NEPHOS = sys.argv.pop(1)
