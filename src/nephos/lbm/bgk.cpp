@@ -33,6 +33,7 @@ void BgkSolver::step() {
   {
     // Per-thread row buffers: populations (19 x nx) and the row's moments.
     std::vector<float> f(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx));
+    std::vector<float> post(f.size());  // the row's post-collision populations, streamed out
     std::vector<float> drho_v(static_cast<std::size_t>(nx)), ux_v(drho_v.size()), uy_v(drho_v.size()),
         uz_v(drho_v.size()), rho_v(drho_v.size());
 #pragma omp for collapse(2) schedule(static)
@@ -70,7 +71,7 @@ void BgkSolver::step() {
 #pragma GCC unroll 19
         for (int i = 0; i < d3q19::q; ++i) {
           const float* fi = F(i);
-          float* o = out + static_cast<std::size_t>(i) * n;
+          float* o = post.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx);
           const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
           const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
           const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
@@ -82,8 +83,10 @@ void BgkSolver::step() {
             const float feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
             o[x] = fi[x] - omega * (fi[x] - feq);
           }
+          store_streaming(out + static_cast<std::size_t>(i) * n, o, static_cast<std::size_t>(nx));
         }
       }
+    stream_fence();
   }
   a_.swap(b_);
 }

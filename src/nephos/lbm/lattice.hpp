@@ -10,8 +10,14 @@
 // that would come from outside is the opposite population of the same cell).
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
+
+#if defined(__AVX512F__) || defined(__AVX__)
+#include <immintrin.h>
+#endif
 
 #include "nephos/lbm/d3q19.hpp"
 
@@ -69,6 +75,32 @@ inline void gather_row(const RowSources& src, float* out, std::size_t stride) {
       o[nx - 1] = r[0];
     }
   }
+}
+
+/// Copies n floats to dst with non-temporal (streaming) stores where the CPU has them and dst
+/// is 64-byte aligned: the destination lines are written whole without first being read
+/// ("write-allocate"), which would otherwise add half again to the memory traffic of a
+/// streaming step (228 instead of 152 B per D3Q19 cell). Call stream_fence() before other
+/// threads read dst. Plain copy otherwise; the values written are the same either way.
+inline void store_streaming(float* dst, const float* src, std::size_t n) {
+#if defined(__AVX512F__)
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 63) == 0 && n % 16 == 0) {
+    for (std::size_t k = 0; k < n; k += 16) _mm512_stream_ps(dst + k, _mm512_loadu_ps(src + k));
+    return;
+  }
+#elif defined(__AVX__)
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 31) == 0 && n % 8 == 0) {
+    for (std::size_t k = 0; k < n; k += 8) _mm256_stream_ps(dst + k, _mm256_loadu_ps(src + k));
+    return;
+  }
+#endif
+  std::memcpy(dst, src, n * sizeof(float));
+}
+/// Orders this thread's streaming stores before anything it does next.
+inline void stream_fence() {
+#if defined(__AVX512F__) || defined(__AVX__)
+  _mm_sfence();
+#endif
 }
 
 }  // namespace nephos::lbm

@@ -16,6 +16,7 @@
 #include <array>
 #include <vector>
 
+#include "nephos/core/huge_page_allocator.hpp"
 #include "nephos/lbm/lattice.hpp"
 
 namespace nephos::lbm {
@@ -73,7 +74,9 @@ class LightingSolver {
   Grid3 g_;
   LightingParams p_;
   std::vector<float> sigma_s_, sigma_a_;
-  std::vector<float> i_, next_;  // [dir][cell]
+  // [dir][cell], photons arriving at each cell (before its collision); huge pages: 2 MiB-aligned
+  // rows for streaming stores.
+  std::vector<float, HugePageAllocator<float>> i_, next_;
   PhaseMatrix phase_;
   bool isotropic_;
   std::vector<std::pair<int, double>> sun_;
