@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "nephos/core/config.hpp"
+#include "nephos/core/huge_page_allocator.hpp"
 #include "nephos/lbm/lattice.hpp"
 
 namespace nephos::lbm {
@@ -122,7 +123,9 @@ class WaterModel {
   std::function<void(WaterModel&, Exchange)> exchange_;
   WaterModelParams p_;
   long step_ = 0;
-  std::vector<float> f_[2], tmp_[2];  // post-collision populations and the streaming buffer
+  // Post-collision populations and the streaming buffer; huge pages: 2 MiB-aligned rows for
+  // streaming stores, and fewer TLB misses over 38 concurrent streams.
+  std::vector<float, HugePageAllocator<float>> f_[2], tmp_[2];
   std::vector<float> rho_[2], psi1_;
 };
 
