@@ -52,6 +52,12 @@ class Mpi(unittest.TestCase):
             run([NEPHOS, "-q"], "--iterations", "12", "--resume", str(d / "mpi6" / "checkpoint.bin"), "--out",
                 str(d / "m1"))
             run(mpirun, "--iterations", "12", "--resume", str(d / "one6" / "checkpoint.bin"), "--out", str(d / "1m"))
+            # A truncated checkpoint stops every rank with a message (no rank left waiting).
+            (d / "cut.bin").write_bytes((d / "one6" / "checkpoint.bin").read_bytes()[:900000])
+            cut = subprocess.run([*mpirun, *args, "--iterations", "12", "--resume", str(d / "cut.bin"), "--out",
+                                  str(d / "cut")], capture_output=True, text=True, timeout=120)
+            self.assertNotEqual(cut.returncode, 0)
+            self.assertIn("truncated checkpoint", cut.stderr)
             ref = netCDF4.Dataset(d / "straight" / "lbm.nc")
             for case in ("mm", "m1", "1m"):
                 got = netCDF4.Dataset(d / case / "lbm.nc")

@@ -5,8 +5,11 @@
 #include <fmt/format.h>
 #include <chrono>
 #include <cstdlib>
+#include <exception>
 #include <limits>
+#include <optional>
 #include <string>
+#include <type_traits>
 
 #include "nephos/core/error.hpp"
 
@@ -30,17 +33,60 @@ int mpi_size() {
   return s;
 }
 
+namespace {
+
+// Runs `f` on every rank; if it throws on any rank, every rank throws: the failing rank its own
+// exception, the others an Error carrying the lowest failing rank's message. A rank must never
+// go on into a collective call while another has stopped (it would wait forever).
+template <class F>
+auto on_all_ranks(F&& f) {
+  std::exception_ptr failure;
+  std::string message;
+  using R = decltype(f());
+  std::optional<std::conditional_t<std::is_void_v<R>, int, R>> result;
+  try {
+    if constexpr (std::is_void_v<R>) {
+      f();
+      result.emplace(0);
+    } else {
+      result.emplace(f());
+    }
+  } catch (const std::exception& e) {
+    failure = std::current_exception();
+    message = e.what();
+  }
+  const int rank = mpi_rank(), size = mpi_size();
+  const int mine = failure ? rank : size;
+  int first = size;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  if (first < size) {
+    int length = static_cast<int>(message.size());
+    MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
+    std::string first_message = rank == first ? message : std::string(static_cast<std::size_t>(length), '\0');
+    MPI_Bcast(first_message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
+    if (failure) std::rethrow_exception(failure);
+    throw Error(fmt::format("rank {} failed: {}", first, first_message));
+  }
+  if constexpr (!std::is_void_v<R>) return std::move(*result);
+}
+
+}  // namespace
+
 WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelParams& params, std::uint64_t seed,
                           const WaterMpiOptions& o) {
   const int rank = mpi_rank(), size = mpi_size();
-  const lbm::Grid3 grid = o.resume.empty() ? fresh_grid : lbm::WaterModel::checkpoint_grid(o.resume);
+  const lbm::Grid3 grid =
+      on_all_ranks([&] { return o.resume.empty() ? fresh_grid : lbm::WaterModel::checkpoint_grid(o.resume); });
   auto begin = [&](int r) { return static_cast<int>(static_cast<long>(grid.ny) * r / size); };
   const int y0 = begin(rank), y1 = begin(rank + 1);
   if (grid.ny / size < 2)
     throw ValueError(fmt::format("{} ranks need at least {} rows in y", size, 2 * size), {.key = "--grid"});
-  lbm::WaterModel model =
-      o.resume.empty() ? lbm::WaterModel(grid, params, y0, y1) : lbm::WaterModel::load_slab(o.resume, y0, y1);
-  if (o.resume.empty()) model.initialise(lbm::make_silos(grid, params, seed), seed);
+  lbm::WaterModel model = on_all_ranks([&] {
+    if (!o.resume.empty()) return lbm::WaterModel::load_slab(o.resume, y0, y1);
+    lbm::WaterModel m(grid, params, y0, y1);
+    m.initialise(lbm::make_silos(grid, params, seed), seed);
+    return m;
+  });
   const int up = (rank + 1) % size, down = (rank + size - 1) % size;
   model.set_exchange([&](lbm::WaterModel& m, lbm::WaterModel::Exchange kind) {
     const auto low = m.pack_row(kind, m.owned_begin()), high = m.pack_row(kind, m.owned_end() - 1);
@@ -68,15 +114,9 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
     std::vector<float> rows(rank == 0 ? static_cast<std::size_t>(row_values * grid.ny) : 0);
     MPI_Gatherv(mine.data(), static_cast<int>(mine.size()), MPI_FLOAT, rows.data(), counts.data(), displs.data(),
                 MPI_FLOAT, 0, MPI_COMM_WORLD);
-    int ok = 1;
-    std::string error;
-    if (rank == 0) try {
-        lbm::WaterModel::save_gathered(path, grid, params, model.steps_done(), rows);
-      } catch (const std::exception& e) {
-        ok = 0, error = e.what();
-      }
-    MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
-    if (!ok) throw IoError(rank == 0 ? error : "rank 0 could not write the checkpoint", {.file = path.string()});
+    on_all_ranks([&] {
+      if (rank == 0) lbm::WaterModel::save_gathered(path, grid, params, model.steps_done(), rows);
+    });
   };
   // The first rank that finds a bad density describes it (global cell coordinates); every
   // rank writes its part of the failure checkpoint and throws the same message.
