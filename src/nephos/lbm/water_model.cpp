@@ -132,204 +132,266 @@ void WaterModel::initialise_uniform(double vapour, double temperature, double pe
 }
 
 void WaterModel::step() {
-  if (exchange_) exchange_(*this, Exchange::populations);
-  step_stage(Stage::stream);
-  if (exchange_) exchange_(*this, Exchange::densities);
-  step_stage(Stage::collide);
+  if (exchange_ || halo_ != 0 || p_.periodic_z) {  // slabs exchange halos between the passes; see fused_step()
+    if (exchange_) exchange_(*this, Exchange::populations);
+    step_stage(Stage::stream);
+    if (exchange_) exchange_(*this, Exchange::densities);
+    step_stage(Stage::collide);
+    return;
+  }
+  fused_step();
 }
 
-void WaterModel::step_stage(Stage stage) {
+void WaterModel::stream_row(int y, int z, float* const tmp[2], std::size_t stride, std::size_t tbase) {
+  // Pass 1 of row (y, z): stream both components into tmp (population i of cell x at
+  // tmp[c][i * stride + tbase + x]); densities and Psi_1.
+  const int nx = g_.nx;
+  const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
+  const float rho10 = static_cast<float>(p_.rho10);
+  const std::size_t base = g_.index(0, y, z);
+  for (int c = 0; c < 2; ++c) {
+    gather_row(row_sources(g_, f_[c].data(), y, z, zb), tmp[c] + tbase, stride);
+    float* rho = rho_[c].data() + base;
+    const float ref = static_cast<float>(reference(p_, c));
+#pragma omp simd
+    for (int x = 0; x < nx; ++x) rho[x] = 0;
+    for (int i = 0; i < d3q19::q; ++i) {
+      const float* t = tmp[c] + static_cast<std::size_t>(i) * stride + tbase;
+#pragma omp simd
+      for (int x = 0; x < nx; ++x) rho[x] += t[x];
+    }
+#pragma omp simd
+    for (int x = 0; x < nx; ++x) rho[x] += ref;
+  }
+  float* psi = psi1_.data() + base;
+  const float* r1 = rho_[0].data() + base;
+#pragma omp simd
+  for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
+}
+
+struct WaterModel::RowScratch {
+  explicit RowScratch(int nx)
+      : buf(static_cast<std::size_t>(21) * static_cast<std::size_t>(nx)),
+        nb1(static_cast<std::size_t>(nx)),
+        nb2(static_cast<std::size_t>(nx)) {}
+  std::vector<float> buf, nb1, nb2;
+};
+
+void WaterModel::collide_row(int y, int z, const float* const tmp[2], std::size_t stride, std::size_t tbase,
+                             RowScratch& scratch) {
+  // Pass 2 of row (y, z), with unit-stride loops over x: gradients, forces, equilibrium
+  // velocities, collision, all in FP32 (the populations are shifted by their rest values, so
+  // FP32 rounds the deviations, not the densities), 16 cells per AVX-512 instruction.
   const std::size_t n = g_.cells();
   const int nx = g_.nx;
   const auto nxs = static_cast<std::size_t>(nx);
-  if (stage == Stage::stream) {
-    const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-    const float rho10 = static_cast<float>(p_.rho10);
-    // Pass 1: stream both components into tmp_; densities and Psi_1.
-#pragma omp parallel for collapse(2) schedule(static)
-    for (int z = 0; z < g_.nz; ++z)
-      for (int y = 0; y < g_.ny; ++y) {
-        const std::size_t base = g_.index(0, y, z);
-        for (int c = 0; c < 2; ++c) {
-          gather_row(row_sources(g_, f_[c].data(), y, z, zb), tmp_[c].data() + base, n);
-          float* rho = rho_[c].data() + base;
-          const float ref = static_cast<float>(reference(p_, c));
-#pragma omp simd
-          for (int x = 0; x < nx; ++x) rho[x] = 0;
-          for (int i = 0; i < d3q19::q; ++i) {
-            const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
-#pragma omp simd
-            for (int x = 0; x < nx; ++x) rho[x] += t[x];
-          }
-#pragma omp simd
-          for (int x = 0; x < nx; ++x) rho[x] += ref;
-        }
-        float* psi = psi1_.data() + base;
-        const float* r1 = rho_[0].data() + base;
-#pragma omp simd
-        for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
-      }
-
-    return;
-  }
-  const int y0 = owned_begin(), y1 = owned_end();
-  // Pass 2, row by row with unit-stride loops over x: gradients, forces, equilibrium
-  // velocities, collision, all in FP32 (the populations are shifted by their rest values, so
-  // FP32 rounds the deviations, not the densities), 16 cells per AVX-512 instruction.
   const float xi[2] = {static_cast<float>(p_.xi_vapour), static_cast<float>(p_.xi_temperature)};
   const float d = static_cast<float>(p_.rest_fraction);
   const float g11_scale = static_cast<float>(-((1 - p_.rest_fraction) / p_.rho10));  // eq. (31) with v = 1
   const float rho20 = static_cast<float>(p_.rho20), g12 = static_cast<float>(p_.g12), g22 = static_cast<float>(p_.g22),
               buoyancy = static_cast<float>(p_.buoyancy),
               buoyancy_reference = static_cast<float>(p_.buoyancy_reference);
-#pragma omp parallel
-  {
-    std::vector<float> buf(static_cast<std::size_t>(21) * nxs);
-    auto B = [&](int k) { return buf.data() + static_cast<std::size_t>(k) * nxs; };
-    float *g1x = B(0), *g1y = B(1), *g1z = B(2), *g2x = B(3), *g2y = B(4), *g2z = B(5);
-    float *ux = B(6), *uy = B(7), *uz = B(8), *drho = B(9);
-    float *j1x = B(10), *j1y = B(11), *j1z = B(12), *j2x = B(13), *j2y = B(14), *j2z = B(15);
-    float *f1x = B(16), *f1y = B(17), *f1z = B(18), *tmpd = B(19), *feq_sum = B(20);
-    std::vector<float> nb1(nxs), nb2(nxs);
-#pragma omp for collapse(2) schedule(static)
-    for (int z = 0; z < g_.nz; ++z)
-      for (int y = y0; y < y1; ++y) {
-        const std::size_t base = g_.index(0, y, z);
-        // Isotropic gradients of Psi_1 and Psi_2 = rho_2 (walls: the row beyond is the row itself).
-        for (int k = 0; k < 6; ++k)
-          for (int x = 0; x < nx; ++x) B(k)[x] = 0;
-        for (int i = 1; i < d3q19::q; ++i) {
-          const auto iu = static_cast<std::size_t>(i);
-          const int sy = (y + d3q19::cy[iu] + g_.ny) % g_.ny;
-          int sz = z + d3q19::cz[iu];
-          sz = p_.periodic_z ? (sz + g_.nz) % g_.nz : std::clamp(sz, 0, g_.nz - 1);
-          const float* p1 = psi1_.data() + g_.index(0, sy, sz);
-          const float* p2 = rho_[1].data() + g_.index(0, sy, sz);
-          const int cx = d3q19::cx[iu];
+  auto B = [&](int k) { return scratch.buf.data() + static_cast<std::size_t>(k) * nxs; };
+  float *g1x = B(0), *g1y = B(1), *g1z = B(2), *g2x = B(3), *g2y = B(4), *g2z = B(5);
+  float *ux = B(6), *uy = B(7), *uz = B(8), *drho = B(9);
+  float *j1x = B(10), *j1y = B(11), *j1z = B(12), *j2x = B(13), *j2y = B(14), *j2z = B(15);
+  float *f1x = B(16), *f1y = B(17), *f1z = B(18), *tmpd = B(19), *feq_sum = B(20);
+  std::vector<float>& nb1 = scratch.nb1;
+  std::vector<float>& nb2 = scratch.nb2;
+  const std::size_t base = g_.index(0, y, z);
+  // Isotropic gradients of Psi_1 and Psi_2 = rho_2 (walls: the row beyond is the row itself).
+  for (int k = 0; k < 6; ++k)
+    for (int x = 0; x < nx; ++x) B(k)[x] = 0;
+  for (int i = 1; i < d3q19::q; ++i) {
+    const auto iu = static_cast<std::size_t>(i);
+    const int sy = (y + d3q19::cy[iu] + g_.ny) % g_.ny;
+    int sz = z + d3q19::cz[iu];
+    sz = p_.periodic_z ? (sz + g_.nz) % g_.nz : std::clamp(sz, 0, g_.nz - 1);
+    const float* p1 = psi1_.data() + g_.index(0, sy, sz);
+    const float* p2 = rho_[1].data() + g_.index(0, sy, sz);
+    const int cx = d3q19::cx[iu];
 #pragma omp simd
-          for (int x = 0; x < nx; ++x) {
-            const int sx = x + cx < 0 ? nx - 1 : (x + cx >= nx ? 0 : x + cx);
-            nb1[static_cast<std::size_t>(x)] = p1[sx];
-            nb2[static_cast<std::size_t>(x)] = p2[sx];
-          }
-          const float w = static_cast<float>(d3q19::gradient_weight(i));
-          const float wx = w * static_cast<float>(cx), wy = w * static_cast<float>(d3q19::cy[iu]),
-                      wz = w * static_cast<float>(d3q19::cz[iu]);
+    for (int x = 0; x < nx; ++x) {
+      const int sx = x + cx < 0 ? nx - 1 : (x + cx >= nx ? 0 : x + cx);
+      nb1[static_cast<std::size_t>(x)] = p1[sx];
+      nb2[static_cast<std::size_t>(x)] = p2[sx];
+    }
+    const float w = static_cast<float>(d3q19::gradient_weight(i));
+    const float wx = w * static_cast<float>(cx), wy = w * static_cast<float>(d3q19::cy[iu]),
+                wz = w * static_cast<float>(d3q19::cz[iu]);
 #pragma omp simd
-          for (int x = 0; x < nx; ++x) {
-            const float a = nb1[static_cast<std::size_t>(x)], b = nb2[static_cast<std::size_t>(x)];
-            g1x[x] += wx * a;
-            g1y[x] += wy * a;
-            g1z[x] += wz * a;
-            g2x[x] += wx * b;
-            g2y[x] += wy * b;
-            g2z[x] += wz * b;
-          }
-        }
-        // Momenta of both components.
-        for (int k = 10; k < 16; ++k)
-          for (int x = 0; x < nx; ++x) B(k)[x] = 0;
-        for (int c = 0; c < 2; ++c) {
-          float* jx = c == 0 ? j1x : j2x;
-          float* jy = c == 0 ? j1y : j2y;
-          float* jz = c == 0 ? j1z : j2z;
-          for (int i = 1; i < d3q19::q; ++i) {
-            const auto iu = static_cast<std::size_t>(i);
-            const float* t = tmp_[c].data() + iu * n + base;
-            const float cx = static_cast<float>(d3q19::cx[iu]), cy = static_cast<float>(d3q19::cy[iu]),
-                        cz = static_cast<float>(d3q19::cz[iu]);
+    for (int x = 0; x < nx; ++x) {
+      const float a = nb1[static_cast<std::size_t>(x)], b = nb2[static_cast<std::size_t>(x)];
+      g1x[x] += wx * a;
+      g1y[x] += wy * a;
+      g1z[x] += wz * a;
+      g2x[x] += wx * b;
+      g2y[x] += wy * b;
+      g2z[x] += wz * b;
+    }
+  }
+  // Momenta of both components.
+  for (int k = 10; k < 16; ++k)
+    for (int x = 0; x < nx; ++x) B(k)[x] = 0;
+  for (int c = 0; c < 2; ++c) {
+    float* jx = c == 0 ? j1x : j2x;
+    float* jy = c == 0 ? j1y : j2y;
+    float* jz = c == 0 ? j1z : j2z;
+    for (int i = 1; i < d3q19::q; ++i) {
+      const auto iu = static_cast<std::size_t>(i);
+      const float* t = tmp[c] + iu * stride + tbase;
+      const float cx = static_cast<float>(d3q19::cx[iu]), cy = static_cast<float>(d3q19::cy[iu]),
+                  cz = static_cast<float>(d3q19::cz[iu]);
 #pragma omp simd
-            for (int x = 0; x < nx; ++x) {
-              jx[x] += cx * t[x];
-              jy[x] += cy * t[x];
-              jz[x] += cz * t[x];
-            }
-          }
-        }
-        const float* r1 = rho_[0].data() + base;
-        const float* r2 = rho_[1].data() + base;
-        const float* ps = psi1_.data() + base;
+      for (int x = 0; x < nx; ++x) {
+        jx[x] += cx * t[x];
+        jy[x] += cy * t[x];
+        jz[x] += cz * t[x];
+      }
+    }
+  }
+  const float* r1 = rho_[0].data() + base;
+  const float* r2 = rho_[1].data() + base;
+  const float* ps = psi1_.data() + base;
 // Forces (eq. 25) into f1*, the temperature force into g2* (no longer needed), and the
 // common equilibrium velocity (eq. 9).
 #pragma omp simd
-        for (int x = 0; x < nx; ++x) {
-          const float psi1 = ps[x], rr1 = r1[x], rr2 = r2[x];
-          const float g11 = g11_scale * (1 + rho20 - rr2);
-          const float h1x = g1x[x], h1y = g1y[x], h1z = g1z[x];
-          // Self-interaction with the factor 2 that makes the pressure G11 Psi_1^2 of eq. (29),
-          // whose window dp/drho_1 < 0 (eq. 30) eq. (31) normalises; see docs/lbm.md.
-          f1x[x] = -psi1 * (2 * g11 * h1x + g12 * g2x[x]);
-          f1y[x] = -psi1 * (2 * g11 * h1y + g12 * g2y[x]);
-          f1z[x] = -psi1 * (2 * g11 * h1z + g12 * g2z[x]) + rr1 * buoyancy * (rr2 - buoyancy_reference);
-          const float f2x = -rr2 * (g12 * h1x + g22 * g2x[x]);
-          const float f2y = -rr2 * (g12 * h1y + g22 * g2y[x]);
-          const float f2z = -rr2 * (g12 * h1z + g22 * g2z[x]);
-          g2x[x] = f2x;
-          g2y[x] = f2y;
-          g2z[x] = f2z;
-          const float denom = rr1 / xi[0] + rr2 / xi[1];
-          ux[x] = (j1x[x] / xi[0] + j2x[x] / xi[1]) / denom;
-          uy[x] = (j1y[x] / xi[0] + j2y[x] / xi[1]) / denom;
-          uz[x] = (j1z[x] / xi[0] + j2z[x] / xi[1]) / denom;
-        }
-        for (int c = 0; c < 2; ++c) {
-          const float* rho = c == 0 ? r1 : r2;
-          const float* fx = c == 0 ? f1x : g2x;
-          const float* fy = c == 0 ? f1y : g2y;
-          const float* fz = c == 0 ? f1z : g2z;
-          const float omega = 1.0f / xi[c];
-          // Per-cell equilibrium velocity of this component (eq. 10) into j* (reused), and
-          // rho - rho_ref from the shifted populations (no cancellation against rho_ref).
-          float* vx = c == 0 ? j1x : j2x;
-          float* vy = c == 0 ? j1y : j2y;
-          float* vz = c == 0 ? j1z : j2z;
+  for (int x = 0; x < nx; ++x) {
+    const float psi1 = ps[x], rr1 = r1[x], rr2 = r2[x];
+    const float g11 = g11_scale * (1 + rho20 - rr2);
+    const float h1x = g1x[x], h1y = g1y[x], h1z = g1z[x];
+    // Self-interaction with the factor 2 that makes the pressure G11 Psi_1^2 of eq. (29),
+    // whose window dp/drho_1 < 0 (eq. 30) eq. (31) normalises; see docs/lbm.md.
+    f1x[x] = -psi1 * (2 * g11 * h1x + g12 * g2x[x]);
+    f1y[x] = -psi1 * (2 * g11 * h1y + g12 * g2y[x]);
+    f1z[x] = -psi1 * (2 * g11 * h1z + g12 * g2z[x]) + rr1 * buoyancy * (rr2 - buoyancy_reference);
+    const float f2x = -rr2 * (g12 * h1x + g22 * g2x[x]);
+    const float f2y = -rr2 * (g12 * h1y + g22 * g2y[x]);
+    const float f2z = -rr2 * (g12 * h1z + g22 * g2z[x]);
+    g2x[x] = f2x;
+    g2y[x] = f2y;
+    g2z[x] = f2z;
+    const float denom = rr1 / xi[0] + rr2 / xi[1];
+    ux[x] = (j1x[x] / xi[0] + j2x[x] / xi[1]) / denom;
+    uy[x] = (j1y[x] / xi[0] + j2y[x] / xi[1]) / denom;
+    uz[x] = (j1z[x] / xi[0] + j2z[x] / xi[1]) / denom;
+  }
+  for (int c = 0; c < 2; ++c) {
+    const float* rho = c == 0 ? r1 : r2;
+    const float* fx = c == 0 ? f1x : g2x;
+    const float* fy = c == 0 ? f1y : g2y;
+    const float* fz = c == 0 ? f1z : g2z;
+    const float omega = 1.0f / xi[c];
+    // Per-cell equilibrium velocity of this component (eq. 10) into j* (reused), and
+    // rho - rho_ref from the shifted populations (no cancellation against rho_ref).
+    float* vx = c == 0 ? j1x : j2x;
+    float* vy = c == 0 ? j1y : j2y;
+    float* vz = c == 0 ? j1z : j2z;
 #pragma omp simd
-          for (int x = 0; x < nx; ++x) {
-            const float s = xi[c] / rho[x];
-            vx[x] = ux[x] + s * fx[x];
-            vy[x] = uy[x] + s * fy[x];
-            vz[x] = uz[x] + s * fz[x];
-            drho[x] = 0;
-          }
-          for (int i = 0; i < d3q19::q; ++i) {
-            const float* t = tmp_[c].data() + static_cast<std::size_t>(i) * n + base;
+    for (int x = 0; x < nx; ++x) {
+      const float s = xi[c] / rho[x];
+      vx[x] = ux[x] + s * fx[x];
+      vy[x] = uy[x] + s * fy[x];
+      vz[x] = uz[x] + s * fz[x];
+      drho[x] = 0;
+    }
+    for (int i = 0; i < d3q19::q; ++i) {
+      const float* t = tmp[c] + static_cast<std::size_t>(i) * stride + tbase;
 #pragma omp simd
-            for (int x = 0; x < nx; ++x) drho[x] += t[x];
-          }
+      for (int x = 0; x < nx; ++x) drho[x] += t[x];
+    }
 // The moving directions first; the rest population's equilibrium is what makes the
 // equilibria sum to drho. Computing it from its own weight instead would conserve
 // mass only up to the FP32 rounding of the weights (sum w_i = 1 + O(1e-7)), a
 // systematic drift of ~4e-6 per 100 steps.
 #pragma omp simd
-          for (int x = 0; x < nx; ++x) feq_sum[x] = 0;
-          for (int i = 1; i <= d3q19::q; ++i) {
-            const int k = i % d3q19::q;  // 1, 2, ..., 18, then 0
-            const auto iu = static_cast<std::size_t>(k);
-            const float* t = tmp_[c].data() + iu * n + base;
-            float* o = f_[c].data() + iu * n + base;
-            if (k == 0) {
+    for (int x = 0; x < nx; ++x) feq_sum[x] = 0;
+    for (int i = 1; i <= d3q19::q; ++i) {
+      const int k = i % d3q19::q;  // 1, 2, ..., 18, then 0
+      const auto iu = static_cast<std::size_t>(k);
+      const float* t = tmp[c] + iu * stride + tbase;
+      float* o = f_[c].data() + iu * n + base;
+      if (k == 0) {
 #pragma omp simd
-              for (int x = 0; x < nx; ++x) tmpd[x] = t[x] - omega * (t[x] - (drho[x] - feq_sum[x]));
-            } else {
-              const float cx = static_cast<float>(d3q19::cx[iu]), cy = static_cast<float>(d3q19::cy[iu]),
-                          cz = static_cast<float>(d3q19::cz[iu]);
-              const auto e = d3q19::equilibrium_coefficients<float>(k, d);
+        for (int x = 0; x < nx; ++x) tmpd[x] = t[x] - omega * (t[x] - (drho[x] - feq_sum[x]));
+      } else {
+        const float cx = static_cast<float>(d3q19::cx[iu]), cy = static_cast<float>(d3q19::cy[iu]),
+                    cz = static_cast<float>(d3q19::cz[iu]);
+        const auto e = d3q19::equilibrium_coefficients<float>(k, d);
 #pragma omp simd
-              for (int x = 0; x < nx; ++x) {
-                const float cu = cx * vx[x] + cy * vy[x] + cz * vz[x];
-                const float u2 = vx[x] * vx[x] + vy[x] * vy[x] + vz[x] * vz[x];
-                const float feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
-                feq_sum[x] += feq;
-                tmpd[x] = t[x] - omega * (t[x] - feq);
-              }
-            }
-            store_streaming(o, tmpd, nxs);
-          }
+        for (int x = 0; x < nx; ++x) {
+          const float cu = cx * vx[x] + cy * vy[x] + cz * vz[x];
+          const float u2 = vx[x] * vx[x] + vy[x] * vy[x] + vz[x] * vz[x];
+          const float feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
+          feq_sum[x] += feq;
+          tmpd[x] = t[x] - omega * (t[x] - feq);
         }
       }
+      store_streaming(o, tmpd, nxs);
+    }
+  }
+}
+
+void WaterModel::step_stage(Stage stage) {
+  const std::size_t n = g_.cells();
+  float* const tmp[2] = {tmp_[0].data(), tmp_[1].data()};
+  if (stage == Stage::stream) {
+#pragma omp parallel for collapse(2) schedule(static)
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = 0; y < g_.ny; ++y) stream_row(y, z, tmp, n, g_.index(0, y, z));
+    return;
+  }
+  const int y0 = owned_begin(), y1 = owned_end();
+#pragma omp parallel
+  {
+    RowScratch scratch(g_.nx);
+#pragma omp for collapse(2) schedule(static)
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = y0; y < y1; ++y) collide_row(y, z, tmp, n, g_.index(0, y, z), scratch);
     stream_fence();
   }
+  finish_step();
+}
 
+void WaterModel::fused_step() {
+  // The two passes as a wavefront over z: stage s streams plane s (pass 1) and then collides
+  // plane s - 1 (pass 2), which needs Psi of planes s - 2 .. s, all done. Pass 1 of plane s
+  // reads the populations of planes s - 1 .. s + 1 before pass 2 of plane s - 1 overwrites
+  // them (a barrier between the two), so every row sees exactly the inputs of the two-pass
+  // order and the result is bit-identical. The streamed populations live in a ring of two
+  // planes (2.5 MiB at 128^2 per plane) that stays in cache instead of a lattice-sized array
+  // that goes to memory and back: a step moves about half the bytes. Walls in z only (a
+  // periodic z would need plane 0's old populations after it is overwritten).
+  const std::size_t plane = static_cast<std::size_t>(g_.nx) * static_cast<std::size_t>(g_.ny);
+  const std::size_t stride = 2 * plane;  // ring: population i of slot k at i * stride + k * plane
+  if (ring_[0].size() != d3q19::q * stride)
+    for (auto& r : ring_) r.assign(d3q19::q * stride, 0.0f);
+  float* const ring[2] = {ring_[0].data(), ring_[1].data()};
+  const int nz = g_.nz, ny = g_.ny, nx = g_.nx;
+#pragma omp parallel
+  {
+    RowScratch scratch(nx);
+    for (int s = 0; s <= nz; ++s) {
+      if (s < nz) {
+#pragma omp for schedule(static)
+        for (int y = 0; y < ny; ++y)
+          stream_row(y, s, ring, stride, static_cast<std::size_t>(s % 2) * plane + static_cast<std::size_t>(y) * nx);
+      }
+      if (s >= 1) {
+#pragma omp for schedule(static)
+        for (int y = 0; y < ny; ++y)
+          collide_row(y, s - 1, ring, stride,
+                      static_cast<std::size_t>((s - 1) % 2) * plane + static_cast<std::size_t>(y) * nx, scratch);
+      }
+    }
+    stream_fence();
+  }
+  finish_step();
+}
+
+void WaterModel::finish_step() {
+  const std::size_t n = g_.cells();
+  const double d = p_.rest_fraction;
   // Fixed-temperature, zero-velocity bottom and top layers.
   if (!p_.periodic_z) {
     for (int z : {0, g_.nz - 1}) {

@@ -116,6 +116,11 @@ class WaterModel {
 
  private:
   std::vector<float> density(int component) const;
+  struct RowScratch;
+  void stream_row(int y, int z, float* const tmp[2], std::size_t stride, std::size_t tbase);
+  void collide_row(int y, int z, const float* const tmp[2], std::size_t stride, std::size_t tbase, RowScratch& scratch);
+  void fused_step();   // both passes as a wavefront over z (whole lattice, walls in z)
+  void finish_step();  // boundary layers and the step count
   int global_y(int y_local) const { return ((y_local - halo_ + y_begin_) % global_.ny + global_.ny) % global_.ny; }
   Grid3 g_;  ///< local grid (the whole lattice unless in slab mode)
   Grid3 global_;
@@ -126,6 +131,7 @@ class WaterModel {
   // Post-collision populations and the streaming buffer; huge pages: 2 MiB-aligned rows for
   // streaming stores, and fewer TLB misses over 38 concurrent streams.
   std::vector<float, HugePageAllocator<float>> f_[2], tmp_[2];
+  std::vector<float> ring_[2];  // fused_step(): the streamed populations of two planes
   std::vector<float> rho_[2], psi1_;
 };
 
