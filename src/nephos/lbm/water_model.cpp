@@ -210,12 +210,21 @@ void WaterModel::collide_row(int y, int z, const float* const tmp[2], std::size_
     const float* p1 = psi1_.data() + g_.index(0, sy, sz);
     const float* p2 = rho_[1].data() + g_.index(0, sy, sz);
     const int cx = d3q19::cx[iu];
-#pragma omp simd
-    for (int x = 0; x < nx; ++x) {
-      const int sx = x + cx < 0 ? nx - 1 : (x + cx >= nx ? 0 : x + cx);
-      nb1[static_cast<std::size_t>(x)] = p1[sx];
-      nb2[static_cast<std::size_t>(x)] = p2[sx];
-    }
+    // Neighbour values at x + cx (periodic in x): shifted copies, not per-element gathers.
+    auto shifted = [&](const float* src, std::vector<float>& dst) {
+      float* o = dst.data();
+      if (cx == 0) {
+        std::copy_n(src, nx, o);
+      } else if (cx == 1) {
+        std::copy_n(src + 1, nx - 1, o);
+        o[nx - 1] = src[0];
+      } else {
+        o[0] = src[nx - 1];
+        std::copy_n(src, nx - 1, o + 1);
+      }
+    };
+    shifted(p1, nb1);
+    shifted(p2, nb2);
     const float w = static_cast<float>(d3q19::gradient_weight(i));
     const float wx = w * static_cast<float>(cx), wy = w * static_cast<float>(d3q19::cy[iu]),
                 wz = w * static_cast<float>(d3q19::cz[iu]);
