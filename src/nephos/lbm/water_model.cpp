@@ -69,7 +69,6 @@ WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(
   const std::size_t n = g_.cells();
   for (int c = 0; c < 2; ++c) {
     f_[c].assign(d3q19::q * n, 0.0f);
-    tmp_[c].assign(d3q19::q * n, 0.0f);
     rho_[c].assign(n, 0.0f);
   }
   psi1_.assign(n, 0.0f);
@@ -343,6 +342,8 @@ void WaterModel::collide_row(int y, int z, const float* const tmp[2], std::size_
 
 void WaterModel::step_stage(Stage stage) {
   const std::size_t n = g_.cells();
+  if (tmp_[0].size() != d3q19::q * n)  // allocated on first use: fused_step() needs no lattice-sized copy
+    for (auto& t : tmp_) t.assign(d3q19::q * n, 0.0f);
   float* const tmp[2] = {tmp_[0].data(), tmp_[1].data()};
   if (stage == Stage::stream) {
 #pragma omp parallel for collapse(2) schedule(static)

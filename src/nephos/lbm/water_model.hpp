@@ -130,8 +130,9 @@ class WaterModel {
   long step_ = 0;
   // Post-collision populations and the streaming buffer; huge pages: 2 MiB-aligned rows for
   // streaming stores, and fewer TLB misses over 38 concurrent streams.
-  std::vector<float, HugePageAllocator<float>> f_[2], tmp_[2];
-  std::vector<float> ring_[2];  // fused_step(): the streamed populations of two planes
+  std::vector<float, HugePageAllocator<float>> f_[2];
+  std::vector<float, HugePageAllocator<float>> tmp_[2];  // step_stage() only (slabs, periodic z)
+  std::vector<float> ring_[2];                           // fused_step(): the streamed populations of two planes
   std::vector<float> rho_[2], psi1_;
 };
 
