@@ -58,6 +58,12 @@ namespace {
 
 constexpr int exit_input_error = 2;
 
+/// "1 thread" / "N threads", for summary lines.
+std::string threads_text() {
+  const int n = thread_count();
+  return fmt::format("{} thread{}", n, n == 1 ? "" : "s");
+}
+
 /// The embedded default weather (a trimmed real GFS file, see data/README.md).
 fs::path default_weather() {
   if (const char* env = std::getenv("NEPHOS_DATA_DIR")) return fs::path(env) / "gfs_20110110_12z_f120_2p5deg.grib2";
@@ -162,7 +168,7 @@ int run_masks(const MasksOptions& o, const GlobalOptions& g) {
                                a.mask_cover, a.gfs_cover, a.correlation);
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({} threads)", out.string(), secs, thread_count());
+  spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({})", out.string(), secs, threads_text());
   return 0;
 }
 
@@ -224,8 +230,8 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     std::string summary;
     for (const auto& [name, secs] : img.seconds_per_type) summary += fmt::format(" {} {:.0f} ms,", name, secs * 1e3);
     if (!summary.empty()) summary.pop_back();
-    std::cout << fmt::format("frame {}: {}x{} px, {} steps, texture {}^3:{} ({} threads)\n", frame, width, height,
-                             o.steps, o.texture, summary, thread_count());
+    std::cout << fmt::format("frame {}: {}x{} px, {} steps, texture {}^3:{} ({})\n", frame, width, height, o.steps,
+                             o.texture, summary, threads_text());
   }
   spdlog::info("wrote {} in {:.1f} s", out.string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
@@ -372,8 +378,8 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
                                      {"vapour", nx, ny, nz, &vapour, 1.0, false, -1.0f},
                                      {"temperature", nx, ny, nz, &temperature, 1.0, false, -1.0f},
                                      {"light", nx, ny, nz, &light, 1.0, false, 0.0f}});
-  std::cout << fmt::format("water model {}: {} steps in {:.2f} s ({:.3f} s/step, {} threads)\n", grid.describe(), done,
-                           t_water, done > 0 ? t_water / static_cast<double>(done) : 0.0, thread_count());
+  std::cout << fmt::format("water model {}: {} steps in {:.2f} s ({:.3f} s/step, {})\n", grid.describe(), done, t_water,
+                           done > 0 ? t_water / static_cast<double>(done) : 0.0, threads_text());
   if (o.percolation > 0)
     std::cout << fmt::format("percolation K={}: {} steps in {:.2f} s\n", o.percolation, perc_steps, t_perc);
   std::cout << fmt::format("lighting: {} steps to residual {:.1e} in {:.2f} s\n", light_steps, lighting.residual(),
