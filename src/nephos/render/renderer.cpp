@@ -228,13 +228,16 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   // Distance to the Earth's surface per pixel (infinity for space).
   std::vector<float> t_earth(npx);
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y)
+  for (int y = 0; y < h; ++y) {
+    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+    sensor.row_rays(y, dirs.data());
     for (int x = 0; x < w; ++x) {
-      const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
+      const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
       const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
       t_earth[static_cast<std::size_t>(y) * w + x] =
           e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
     }
+  }
 
   // One pass per cloud type, each timed; layers kept for compositing.
   const std::size_t ns = scene.shells.size();
@@ -256,10 +259,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
       std::vector<double> t_max(static_cast<std::size_t>(w));
       std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-      for (int x = 0; x < w; ++x) {
-        dirs[static_cast<std::size_t>(x)] = sensor.ray(x + 0.5, y + 0.5);
-        t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
-      }
+      sensor.row_rays(y, dirs.data());
+      for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
       march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
                   params.bisection_iterations, row_hits.data());
       for (int x = 0; x < w; ++x) {

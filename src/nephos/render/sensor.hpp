@@ -19,11 +19,12 @@ struct Sensor {
   std::string description;
 
   /// Unit direction of the ray through image point (x, y) in pixels (0,0 = top-left corner).
-  earth::Vec3 ray(double x, double y) const {
+  earth::Vec3 ray(double x, double y) const { return ray(x, y, std::tan(0.5 * fov_deg * earth::deg)); }
+  /// The rays through the centres of the pixels of image row `row`, out[0 .. width - 1]
+  /// (ray(x + 0.5, row + 0.5), with the field of view's tangent computed once).
+  void row_rays(int row, earth::Vec3* out) const {
     const double t = std::tan(0.5 * fov_deg * earth::deg);
-    const double sx = (2.0 * x / width - 1.0) * t;
-    const double sy = (1.0 - 2.0 * y / height) * t * height / width;
-    return glm::normalize(forward + sx * right + sy * up);
+    for (int x = 0; x < width; ++x) out[x] = ray(x + 0.5, row + 0.5, t);
   }
 
   /// Full disc from geostationary orbit over longitude `lon_deg`, north up; the field of view
@@ -35,6 +36,13 @@ struct Sensor {
   /// default the local vertical at `from`.
   static Sensor look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
                         int height, const earth::Vec3* up_hint = nullptr);
+
+ private:
+  earth::Vec3 ray(double x, double y, double tan_half_fov) const {
+    const double sx = (2.0 * x / width - 1.0) * tan_half_fov;
+    const double sy = (1.0 - 2.0 * y / height) * tan_half_fov * height / width;
+    return glm::normalize(forward + sx * right + sy * up);
+  }
 };
 
 /// "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG", or a TOML file with a [camera] table
