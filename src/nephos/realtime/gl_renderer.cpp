@@ -333,22 +333,19 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
   glGenBuffers(1, &m.instances);
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
+  // Per-instance attributes, 17 floats: location, component count, offset [floats].
   constexpr GLsizei stride = 17 * sizeof(float);
-  glEnableVertexAttribArray(1);
-  glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, nullptr);
-  glVertexAttribDivisor(1, 1);
-  glEnableVertexAttribArray(2);
-  glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(4 * sizeof(float)));
-  glVertexAttribDivisor(2, 1);
-  glEnableVertexAttribArray(3);
-  glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(8 * sizeof(float)));
-  glVertexAttribDivisor(3, 1);
-  glEnableVertexAttribArray(4);
-  glVertexAttribPointer(4, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(10 * sizeof(float)));
-  glVertexAttribDivisor(4, 1);
-  glEnableVertexAttribArray(5);
-  glVertexAttribPointer(5, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(13 * sizeof(float)));
-  glVertexAttribDivisor(5, 1);
+  constexpr struct {
+    GLuint location;
+    GLint size;
+    std::size_t offset;
+  } instance_attributes[] = {{1, 4, 0}, {2, 4, 4}, {3, 2, 8}, {4, 3, 10}, {5, 4, 13}};
+  for (const auto& a : instance_attributes) {
+    glEnableVertexAttribArray(a.location);
+    glVertexAttribPointer(a.location, a.size, GL_FLOAT, GL_FALSE, stride,
+                          reinterpret_cast<void*>(a.offset * sizeof(float)));
+    glVertexAttribDivisor(a.location, 1);
+  }
 
   // Impostor textures: 2 sets x 8 sectors x 256 x 256 RGBA8 (premultiplied), 2 MiB per set.
   glGenTextures(2, m.imp_tex);
