@@ -9,6 +9,19 @@
 
 namespace nephos::lbm {
 
+namespace {
+
+// A density field of `value` inside the box [x0, x1) x [y0, y1) x [z0, z1), 0 elsewhere.
+std::vector<float> box_density(const Grid3& g, int x0, int x1, int y0, int y1, int z0, int z1, float value) {
+  std::vector<float> density(g.cells(), 0.0f);
+  for (int z = z0; z < z1; ++z)
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) density[g.index(x, y, z)] = value;
+  return density;
+}
+
+}  // namespace
+
 TEST(Lighting, PhaseMatrixConservesPhotonsAndHasTheRequestedAsymmetry) {
   for (double g : {0.0, 0.5, 0.85}) {
     const PhaseMatrix p = phase_matrix(g);
@@ -63,10 +76,7 @@ TEST(Lighting, DiffusionLimit) {
 TEST(Lighting, PhotonBalanceAtSteadyState) {
   // inflow = outflow + absorption at steady state, to 1e-4 (issue).
   const Grid3 g{24, 24, 24};
-  std::vector<float> density(g.cells(), 0.0f);
-  for (int z = 6; z < 18; ++z)
-    for (int y = 4; y < 20; ++y)
-      for (int x = 4; x < 20; ++x) density[g.index(x, y, z)] = 1.0f;
+  const std::vector<float> density = box_density(g, 4, 20, 4, 20, 6, 18, 1.0f);
   LightingParams p;
   p.sigma_a_per_density = 0.02;
   LightingSolver s(g, density, p);
@@ -83,10 +93,7 @@ TEST(Lighting, SameStepsAndLightForAnyThreadCount) {
   // and 2 threads take the same number of steps to the same field, bit for bit; with forward
   // scattering (the full phase matrix path) and a grid whose rows do not fill whole vectors.
   const Grid3 g{20, 18, 16};
-  std::vector<float> density(g.cells(), 0.0f);
-  for (int z = 4; z < 12; ++z)
-    for (int y = 3; y < 15; ++y)
-      for (int x = 5; x < 15; ++x) density[g.index(x, y, z)] = 0.8f;
+  const std::vector<float> density = box_density(g, 5, 15, 3, 15, 4, 12, 0.8f);
   LightingParams p;
   p.asymmetry = 0.6;
   set_threads(1);
