@@ -35,6 +35,25 @@ int mpi_size() {
 
 namespace {
 
+struct RankFailure {
+  int rank;
+  std::string message;
+};
+// Collective: the lowest rank that reports `failed` and its `message`, on every rank; nothing
+// when no rank failed.
+std::optional<RankFailure> first_failure(bool failed, const std::string& message) {
+  const int rank = mpi_rank(), size = mpi_size();
+  const int mine = failed ? rank : size;
+  int first = size;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  if (first == size) return std::nullopt;
+  int length = static_cast<int>(message.size());
+  MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
+  std::string text = rank == first ? message : std::string(static_cast<std::size_t>(length), '\0');
+  MPI_Bcast(text.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
+  return RankFailure{first, std::move(text)};
+}
+
 // Runs `f` on every rank; if it throws on any rank, every rank throws: the failing rank its own
 // exception, the others an Error carrying the lowest failing rank's message. A rank must never
 // go on into a collective call while another has stopped (it would wait forever).
@@ -55,17 +74,9 @@ auto on_all_ranks(F&& f) {
     failure = std::current_exception();
     message = e.what();
   }
-  const int rank = mpi_rank(), size = mpi_size();
-  const int mine = failure ? rank : size;
-  int first = size;
-  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-  if (first < size) {
-    int length = static_cast<int>(message.size());
-    MPI_Bcast(&length, 1, MPI_INT, first, MPI_COMM_WORLD);
-    std::string first_message = rank == first ? message : std::string(static_cast<std::size_t>(length), '\0');
-    MPI_Bcast(first_message.data(), length, MPI_CHAR, first, MPI_COMM_WORLD);
+  if (const auto first = first_failure(failure != nullptr, message)) {
     if (failure) std::rethrow_exception(failure);
-    throw Error(fmt::format("rank {} failed: {}", first, first_message));
+    throw Error(fmt::format("rank {} failed: {}", first->rank, first->message));
   }
   if constexpr (!std::is_void_v<R>) return std::move(*result);
 }
@@ -121,25 +132,19 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
   // The first rank that finds a bad density describes it (global cell coordinates); every
   // rank writes its part of the failure checkpoint and throws the same message.
   auto check = [&] {
-    std::string what;
+    std::string what, message;
     std::size_t cell = 0;
-    const int bad = model.check(what, cell) ? size : rank;
-    int first_bad = size;
-    MPI_Allreduce(&bad, &first_bad, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    if (first_bad == size) return;
-    std::string message;
-    if (rank == first_bad) {
+    const bool bad = !model.check(what, cell);
+    if (bad) {
       const std::size_t nx = static_cast<std::size_t>(grid.nx), own = static_cast<std::size_t>(y1 - y0);
       message = fmt::format("step {}: {} at cell (x={}, y={}, z={})", model.steps_done(), what, cell % nx,
                             y0 + static_cast<long>(cell / nx % own), cell / (nx * own));
     }
-    int length = static_cast<int>(message.size());
-    MPI_Bcast(&length, 1, MPI_INT, first_bad, MPI_COMM_WORLD);
-    message.resize(static_cast<std::size_t>(length));
-    MPI_Bcast(message.data(), length, MPI_CHAR, first_bad, MPI_COMM_WORLD);
+    const auto first = first_failure(bad, message);
+    if (!first) return;
     const auto ck = o.out_dir / "checkpoint_failed.bin";
     checkpoint(ck);
-    throw NumericError(fmt::format("{}; state saved to {}", message, ck.string()));
+    throw NumericError(fmt::format("{}; state saved to {}", first->message, ck.string()));
   };
   const auto t0 = std::chrono::steady_clock::now();
   const long first = model.steps_done();
