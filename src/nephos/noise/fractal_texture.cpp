@@ -148,8 +148,7 @@ void Texture3D::throw_bad_size(int n) {
 }
 
 void Texture3D::update_bounds() {
-  if (n_ < 1 || (n_ & (n_ - 1)) != 0)
-    throw ValueError(fmt::format("texture size must be a power of two, got {}", n_), {.key = "texture"});
+  if (n_ < 4 || (n_ & (n_ - 1)) != 0) throw_bad_size(n_);  // a default-constructed texture
   block_shift_ = 0;
   while ((n_ >> block_shift_) > bounds_grid) ++block_shift_;
   const int b = 1 << block_shift_, nb = n_ / b;
