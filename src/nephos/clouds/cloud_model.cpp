@@ -290,8 +290,7 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
     for (std::size_t j = 0; j < m; ++j) {
       using Cube = CubeMap<float>;
       const Cube::Location l = Cube::locate(mask_n, w.mx[j], w.my[j], w.mz[j]);
-      const std::size_t k = l.index, row = static_cast<std::size_t>(mask_n);
-      w.mask[j] = Cube::blend(l, mask_texels[k], mask_texels[k + 1], mask_texels[k + row], mask_texels[k + row + 1]);
+      w.mask[j] = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
       // The barrier table, clamped to its range (points off it take barrier() below).
       const double xc = std::min(std::max(w.r[j] - earth::radius_m - barrier_z0_, 0.0), bt_last - 1);
       const int i = static_cast<int>(xc);

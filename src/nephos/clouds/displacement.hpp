@@ -58,9 +58,8 @@ class DisplacementMap {
     for (std::size_t i = 0; i < n; ++i) {
       const Cube::Location l = Cube::locate(size, x[i], y[i], z[i]);
       const std::size_t k = 3 * static_cast<std::size_t>(l.index);
-      const double vx = Cube::blend(l, t[k], t[k + 3], t[k + row], t[k + row + 3]);
-      const double vy = Cube::blend(l, t[k + 1], t[k + 4], t[k + row + 1], t[k + row + 4]);
-      const double vz = Cube::blend(l, t[k + 2], t[k + 5], t[k + row + 2], t[k + row + 5]);
+      const double vx = Cube::blend_at(l, t, k, 3, row), vy = Cube::blend_at(l, t, k + 1, 3, row),
+                   vz = Cube::blend_at(l, t, k + 2, 3, row);
       const double inv_len = 1.0 / std::sqrt(vx * vx + vy * vy + vz * vz);
       ux[i] = vx * inv_len, uy[i] = vy * inv_len, uz[i] = vz * inv_len;
     }
