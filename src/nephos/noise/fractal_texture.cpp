@@ -130,14 +130,14 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
   const auto [lo_it, hi_it] = std::minmax_element(raw.begin(), raw.end());
   const float lo = *lo_it, span = std::max(*hi_it - lo, 1e-30f);
   Texture3D t(n);
-  std::uint16_t* d = t.data();
+  Texture3D::Texel* d = t.data();
 #pragma omp parallel for schedule(static)
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
         float v = (raw[(static_cast<std::size_t>(k) * n + j) * n + i] - lo) / span;
         if (spec.invert) v = 1.0f - v;
-        d[t.index(i, j, k)] = static_cast<std::uint16_t>(std::lround(v * 65535.0f));
+        d[t.index(i, j, k)] = static_cast<Texture3D::Texel>(std::lround(v * Texture3D::texel_max));
       }
   t.update_bounds();
   return t;
@@ -158,18 +158,17 @@ void Texture3D::update_bounds() {
   for (int bk = 0; bk < nb; ++bk)
     for (int bj = 0; bj < nb; ++bj)
       for (int bi = 0; bi < nb; ++bi) {
-        std::uint16_t lo = 65535, hi = 0;
+        std::uint32_t lo = 255, hi = 0;
         for (int k = 0; k <= b; ++k)  // the block and one voxel beyond (periodic)
           for (int j = 0; j <= b; ++j)
             for (int i = 0; i <= b; ++i) {
               const unsigned x = static_cast<unsigned>(bi * b + i) & mask, y = static_cast<unsigned>(bj * b + j) & mask,
                              z = static_cast<unsigned>(bk * b + k) & mask;
-              const std::uint16_t v = data_[std::size_t{offset_x(x)} + offset_y(y) + offset_z(z)];
+              const std::uint32_t v = data_[std::size_t{offset_x(x)} + offset_y(y) + offset_z(z)];
               lo = std::min(lo, v);
               hi = std::max(hi, v);
             }
-        block_bounds_[(static_cast<std::size_t>(bk) * nb + bj) * nb + bi] =
-            static_cast<std::uint32_t>(lo) | static_cast<std::uint32_t>(hi) << 16;
+        block_bounds_[(static_cast<std::size_t>(bk) * nb + bj) * nb + bi] = static_cast<std::uint16_t>(lo | hi << 8);
       }
 }
 

@@ -21,33 +21,6 @@ struct Path {
   double t_at(double s) const { return s <= a1 - a0 ? a0 + s : b0 + (s - (a1 - a0)); }
 };
 
-bool shell_path(double r_bottom, double r_top, const earth::Vec3& o, const earth::Vec3& d, double t_max, Path& p) {
-  const auto outer = earth::ray_sphere(o, d, r_top);
-  if (!outer || outer->t1 <= 0) return false;
-  const double t0 = std::max(outer->t0, 0.0), t1 = std::min(outer->t1, t_max);
-  if (t1 <= t0) return false;
-  p = {t0, t1, 0, 0};
-  if (const auto inner = earth::ray_sphere(o, d, r_bottom); inner && inner->t1 > t0) {
-    if (inner->t0 > t0) {  // enters the inner sphere ahead: cut there, resume where it leaves
-      p.a1 = std::min(inner->t0, t1);
-      p.b0 = inner->t1;
-      p.b1 = t1;
-    } else {  // starts inside the inner sphere (camera below the shell): from its exit
-      p.a0 = inner->t1;
-      if (p.a0 >= t1) return false;
-    }
-  }
-  return p.length() > 0;
-}
-
-// Length of [0, 1] where the linear interpolant of (va, vb) exceeds 0.
-double inside_fraction(double va, double vb) {
-  if (va > 0 && vb > 0) return 1;
-  if (va <= 0 && vb <= 0) return 0;
-  const double x = va / (va - vb);  // crossing
-  return va > 0 ? x : 1 - x;
-}
-
 // Band-mean Planck radiance as a table over temperature for a fast exact-enough inverse.
 struct PlanckTable {
   static constexpr double t_lo = 100, t_hi = 400, dt = 0.01;
@@ -84,116 +57,218 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
   return hit;
 }
 
+namespace {
+
+// The smaller root of |o + t d|^2 = radius^2 and the larger one (earth::ray_sphere's
+// arithmetic, branch-free for vectorised loops); disc < 0 when the ray misses.
+struct Roots {
+  double t0, t1, disc;
+};
+[[gnu::always_inline]] inline Roots sphere_roots(double b, double c) {
+  const double disc = std::fma(b, b, -c);
+  const double s = std::sqrt(std::max(disc, 0.0));
+  const double q = b > 0 ? -b - s : -b + s;
+  const double r0 = q, r1 = q != 0 ? c / q : -b;
+  return {std::min(r0, r1), std::max(r0, r1), disc};
+}
+
+// Per-thread scratch of march_shell(), structure of arrays (one row of rays at a time), kept
+// between calls so that marching a row allocates nothing.
+struct MarchScratch {
+  // Every ray: its path through the shell, [a0, a0 + la] then [b0, b1] (see Path).
+  std::vector<double> a0, la, b0, b1;
+  std::vector<std::uint8_t> in_shell;
+  // The rays marched (possible cloud on their path), compacted.
+  std::vector<std::uint32_t> idx, act;
+  std::vector<double> ma0, mla, mb0, ds, dx, dy, dz;
+  std::vector<double> v_prev, lo, hi, depth_after;
+  std::vector<int> k_hit;
+  std::vector<earth::Vec3> pts;
+  std::vector<double> vals;
+  void resize_rays(std::size_t n) {
+    for (auto* v : {&a0, &la, &b0, &b1}) v->resize(n);
+    in_shell.resize(n);
+  }
+  // The ends of every ray's path (first n: start, next n: end) and their skip lookups.
+  std::vector<double> ex, ey, ez;
+  std::vector<std::uint8_t> possible, short_arc;
+  void resize_ends(std::size_t n) {
+    for (auto* v : {&ex, &ey, &ez}) v->resize(2 * n);
+    possible.resize(2 * n);
+    short_arc.resize(n);
+  }
+  void resize_marched(std::size_t n) {
+    idx.resize(n);
+    for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after}) v->resize(n);
+    k_hit.resize(n);
+    pts.resize(4 * n);
+    vals.resize(4 * n);
+  }
+};
+
+}  // namespace
+
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
                  std::size_t n, int steps, int bisection_iterations, ShellHit* hits) {
   // Rays advance in lockstep, one batched classify() per step over every ray still in the
-  // shell, so the texture misses of different rays overlap (see CloudShell::classify).
-  struct Ray {
-    std::size_t i;           // index into d / hits
-    Path path;               // the ray's part inside the shell
-    double ds;               // step length [m]
-    double v_prev;           // CF - threshold at the previous sample
-    int k_hit = -1;          // step of the first sample inside (0: the path starts inside)
-    double lo = 0, hi = 0;   // crossing bracket [path length]
-    double depth_after = 0;  // depth accumulated after the crossing step [m]
-  };
-  std::vector<Ray> rays;
-  rays.reserve(n);
+  // shell, so the texture misses of different rays overlap (see CloudShell::classify). Every
+  // per-ray stage is a branch-free loop over arrays that vectorises; a ray's result does not
+  // depend on the other rays of the batch. Multiply-adds in these loops are explicit std::fma:
+  // left to the compiler, the vector body and the scalar remainder contract differently.
+  thread_local MarchScratch w;
+  for (std::size_t i = 0; i < n; ++i) hits[i] = ShellHit{};
+  w.resize_rays(n);
+  // 1. The part of each ray inside the shell: up to two intervals (in front of and behind the
+  //    inner sphere when a ray grazes below the shell bottom without reaching the ground).
+  const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
+  const double oo = glm::dot(o, o), c_top = oo - r_top * r_top, c_bottom = oo - r_bottom * r_bottom;
+#pragma omp simd
   for (std::size_t i = 0; i < n; ++i) {
-    hits[i] = ShellHit{};
-    Path path;
-    if (!shell_path(shell.radius_bottom_m(), shell.radius_top_m(), o, d[i], t_max[i], path)) continue;
-    // Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
-    // lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
-    // nothing more.
-    const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d[i]);
-    const earth::Vec3 b = glm::normalize(o + path.t_at(path.length()) * d[i]);
-    // Arc between the path's ends: most paths (steep views) are shorter than one skip radius,
-    // which the chord c bounds without trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)).
-    const double radius = shell.skip_radius_rad(), c2 = glm::dot(a - b, a - b);
-    const bool short_arc = c2 < 1 && c2 < radius * radius * (1 - 0.25 * c2);
-    const double arc = short_arc ? 0.0 : std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-    const int m = 1 + static_cast<int>(arc / radius);
-    bool possible = false;
-    for (int j = 0; j <= m && !possible; ++j)
-      possible = shell.may_have_cloud(o + path.t_at(path.length() * j / m) * d[i]);
-    if (possible) rays.push_back({i, path, path.length() / steps, 0});
+    const double b = std::fma(o.z, d[i].z, std::fma(o.y, d[i].y, o.x * d[i].x));
+    const Roots outer = sphere_roots(b, c_top), inner = sphere_roots(b, c_bottom);
+    const double t0 = std::max(outer.t0, 0.0), t1 = std::min(outer.t1, t_max[i]);
+    bool ok = outer.disc >= 0 && outer.t1 > 0 && t1 > t0;
+    double a0 = t0, a1 = t1, b0 = 0, b1 = 0;
+    const bool meets_inner = inner.disc >= 0 && inner.t1 > t0;
+    // Enters the inner sphere ahead: cut there, resume where it leaves. Starts inside it
+    // (camera below the shell): from its exit.
+    const bool ahead = meets_inner && inner.t0 > t0, from_exit = meets_inner && !(inner.t0 > t0);
+    a1 = ahead ? std::min(inner.t0, t1) : a1;
+    b0 = ahead ? inner.t1 : b0;
+    b1 = ahead ? t1 : b1;
+    a0 = from_exit ? inner.t1 : a0;
+    ok = ok && !(from_exit && a0 >= t1);
+    const double la = a1 - a0;
+    ok = ok && la + std::max(0.0, b1 - b0) > 0;
+    w.a0[i] = a0, w.la[i] = la, w.b0[i] = b0, w.b1[i] = b1, w.in_shell[i] = ok;
   }
-  if (rays.empty()) return;
-  const double thr = shell.threshold();
-  std::vector<earth::Vec3> pts(rays.size() * 4);
-  std::vector<double> vals(pts.size());
-  // The rays' paths and directions as arrays, so that the sample points of a step come from
-  // one vectorised loop (Path::t_at, same arithmetic).
-  const std::size_t nr = rays.size();
-  std::vector<double> a0(nr), la(nr), b0(nr), ds(nr), dx(nr), dy(nr), dz(nr);
+  // 2. Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
+  //    lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
+  //    nothing more. Most paths (steep views) are shorter than one skip radius, which the
+  //    chord c between the path's ends bounds without trigonometry (arc = 2 asin(c/2) <=
+  //    c / sqrt(1 - c^2/4)): their two end lookups are batched; longer paths (towards the
+  //    limb) take their lookups one by one.
+  const double radius = shell.skip_radius_rad();
+  w.resize_ends(n);
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i) {
+    const double len = w.la[i] + std::max(0.0, w.b1[i] - w.b0[i]);
+    const double t0 = w.a0[i], t1 = len <= w.la[i] ? w.a0[i] + len : w.b0[i] + (len - w.la[i]);
+    const double x0 = std::fma(t0, d[i].x, o.x), y0 = std::fma(t0, d[i].y, o.y), z0 = std::fma(t0, d[i].z, o.z);
+    const double x1 = std::fma(t1, d[i].x, o.x), y1 = std::fma(t1, d[i].y, o.y), z1 = std::fma(t1, d[i].z, o.z);
+    const double r0 = std::sqrt(x0 * x0 + y0 * y0 + z0 * z0), r1 = std::sqrt(x1 * x1 + y1 * y1 + z1 * z1);
+    const double cx = x0 / r0 - x1 / r1, cy = y0 / r0 - y1 / r1, cz = z0 / r0 - z1 / r1;
+    const double c2 = cx * cx + cy * cy + cz * cz;
+    w.short_arc[i] = c2 < 1 && c2 < radius * radius * (1 - 0.25 * c2);
+    w.ex[i] = x0, w.ey[i] = y0, w.ez[i] = z0, w.ex[n + i] = x1, w.ey[n + i] = y1, w.ez[n + i] = z1;
+  }
+  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), 2 * n, w.possible.data());
+  std::size_t nr = 0;
+  w.idx.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!w.in_shell[i]) continue;
+    bool possible = w.possible[i] || w.possible[n + i];
+    if (!w.short_arc[i] && !possible) {
+      const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
+      const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d[i]);
+      const earth::Vec3 b = glm::normalize(o + path.t_at(path.length()) * d[i]);
+      const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
+      const int m = 1 + static_cast<int>(arc / radius);
+      for (int j = 1; j < m && !possible; ++j)
+        possible = shell.may_have_cloud(o + path.t_at(path.length() * j / m) * d[i]);
+    }
+    if (possible) w.idx[nr++] = static_cast<std::uint32_t>(i);
+  }
+  if (nr == 0) return;
+  w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
-    const Ray& r = rays[j];
-    a0[j] = r.path.a0, la[j] = r.path.a1 - r.path.a0, b0[j] = r.path.b0, ds[j] = r.ds;
-    dx[j] = d[r.i].x, dy[j] = d[r.i].y, dz[j] = d[r.i].z;
+    const std::uint32_t i = w.idx[j];
+    w.ma0[j] = w.a0[i], w.mla[j] = w.la[i], w.mb0[j] = w.b0[i];
+    w.ds[j] = (w.la[i] + std::max(0.0, w.b1[i] - w.b0[i])) / steps;
+    w.dx[j] = d[i].x, w.dy[j] = d[i].y, w.dz[j] = d[i].z;
+    w.k_hit[j] = -1, w.v_prev[j] = 0, w.lo[j] = 0, w.hi[j] = 0, w.depth_after[j] = 0;
   }
+  // The point at path length s of marched ray j (Path::t_at).
+  auto point = [&o](std::size_t j, double s) {
+    const double t = s <= w.mla[j] ? w.ma0[j] + s : w.mb0[j] + (s - w.mla[j]);
+    return earth::Vec3{std::fma(t, w.dx[j], o.x), std::fma(t, w.dy[j], o.y), std::fma(t, w.dz[j], o.z)};
+  };
+  // 3. The march.
+  const double thr = shell.threshold();
   for (int k = 0; k <= steps; ++k) {
 #pragma omp simd
+    for (std::size_t j = 0; j < nr; ++j) w.pts[j] = point(j, k * w.ds[j]);
+    shell.classify(w.pts.data(), nr, w.vals.data());
+#pragma omp simd
     for (std::size_t j = 0; j < nr; ++j) {
-      const double s = k * ds[j];
-      const double t = s <= la[j] ? a0[j] + s : b0[j] + (s - la[j]);
-      pts[j] = earth::Vec3{o.x + t * dx[j], o.y + t * dy[j], o.z + t * dz[j]};
-    }
-    shell.classify(pts.data(), rays.size(), vals.data());
-    for (std::size_t j = 0; j < rays.size(); ++j) {
-      Ray& r = rays[j];
-      const double v = vals[j] - thr;
-      if (r.k_hit < 0 && v > 0) {  // first sample inside: bracket the crossing
-        r.k_hit = k;
-        r.lo = k > 0 ? (k - 1) * r.ds : 0;
-        r.hi = k * r.ds;
-      } else if (r.k_hit >= 0) {
-        // Depth after the crossing step: linear interpolation between samples (of CF, or of
-        // the bounds classify() returns, which keep CF's side: accuracy of order one step).
-        r.depth_after += r.ds * inside_fraction(r.v_prev, v);
-      }
-      r.v_prev = v;
+      const double v = w.vals[j] - thr, vp = w.v_prev[j];
+      const bool first = w.k_hit[j] < 0 && v > 0;  // first sample inside: bracket the crossing
+      // After the crossing step, depth by linear interpolation between samples (of CF, or of
+      // the bounds classify() returns, which keep CF's side: accuracy of order one step):
+      // the length of the step where the interpolant exceeds 0.
+      const bool after = w.k_hit[j] >= 0;
+      const double x = vp / (vp - v);  // where the interpolant crosses 0 (used only on a sign change)
+      const double inside = !after ? 0.0 : vp > 0 && v > 0 ? 1.0 : vp <= 0 && v <= 0 ? 0.0 : vp > 0 ? x : 1 - x;
+      w.depth_after[j] = std::fma(w.ds[j], inside, w.depth_after[j]);
+      w.lo[j] = first ? (k > 0 ? (k - 1) * w.ds[j] : 0.0) : w.lo[j];
+      w.hi[j] = first ? k * w.ds[j] : w.hi[j];
+      w.k_hit[j] = first ? k : w.k_hit[j];
+      w.v_prev[j] = v;
     }
   }
-  // Keep the rays that found cloud; refine their first crossing by bisection, all together.
-  std::erase_if(rays, [](const Ray& r) { return r.k_hit < 0; });
+  // 4. Keep the rays that found cloud; refine their first crossing by bisection, all together.
+  std::size_t nh = 0;
+  for (std::size_t j = 0; j < nr; ++j) {
+    if (w.k_hit[j] < 0) continue;
+    w.idx[nh] = w.idx[j], w.ma0[nh] = w.ma0[j], w.mla[nh] = w.mla[j], w.mb0[nh] = w.mb0[j], w.ds[nh] = w.ds[j];
+    w.dx[nh] = w.dx[j], w.dy[nh] = w.dy[j], w.dz[nh] = w.dz[j];
+    w.k_hit[nh] = w.k_hit[j], w.lo[nh] = w.lo[j], w.hi[nh] = w.hi[j], w.depth_after[nh] = w.depth_after[j];
+    ++nh;
+  }
+  // Each bracket is halved until it is shorter than the finest texture voxel (the smallest
+  // feature the cloud function has), at most bisection_iterations times.
+  const double tolerance = shell.feature_size_m();
   for (int it = 0; it < bisection_iterations; ++it) {
-    for (std::size_t j = 0; j < rays.size(); ++j)
-      pts[j] = o + rays[j].path.t_at(0.5 * (rays[j].lo + rays[j].hi)) * d[rays[j].i];
-    shell.classify(pts.data(), rays.size(), vals.data());
-    for (std::size_t j = 0; j < rays.size(); ++j) {
-      Ray& r = rays[j];
-      if (r.k_hit == 0) continue;  // starts inside: the surface is the path's start
-      (vals[j] - thr > 0 ? r.hi : r.lo) = 0.5 * (r.lo + r.hi);
+    std::size_t na = 0;  // rays still refined, compacted into act
+    w.act.resize(nh);
+    for (std::size_t j = 0; j < nh; ++j)
+      if (w.k_hit[j] != 0 && w.hi[j] - w.lo[j] > tolerance) w.act[na++] = static_cast<std::uint32_t>(j);
+    if (na == 0) break;
+    for (std::size_t a = 0; a < na; ++a) {
+      const std::uint32_t j = w.act[a];
+      w.pts[a] = point(j, 0.5 * (w.lo[j] + w.hi[j]));
+    }
+    shell.classify(w.pts.data(), na, w.vals.data());
+    for (std::size_t a = 0; a < na; ++a) {
+      const std::uint32_t j = w.act[a];
+      (w.vals[a] - thr > 0 ? w.hi[j] : w.lo[j]) = 0.5 * (w.lo[j] + w.hi[j]);
     }
   }
-  // Surface normals from the CF gradient by forward differences (O(h) error with h ~ two fine
-  // voxels, far below what shading needs): four batched exact evaluations per ray.
+  // 5. Surface normals from the CF gradient by forward differences (O(h) error with h ~ two
+  //    fine voxels, far below what shading needs): four batched exact evaluations per ray.
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
-  const std::size_t nh = rays.size();
   for (std::size_t j = 0; j < nh; ++j) {
-    const Ray& r = rays[j];
-    const double s_hit = r.k_hit == 0 ? 0.0 : r.hi;
-    const earth::Vec3 p = o + r.path.t_at(s_hit) * d[r.i];
-    pts[j] = p;
-    pts[nh + j] = p + earth::Vec3{h, 0, 0};
-    pts[2 * nh + j] = p + earth::Vec3{0, h, 0};
-    pts[3 * nh + j] = p + earth::Vec3{0, 0, h};
+    const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
+    const earth::Vec3 p = point(j, s_hit);
+    w.pts[j] = p;
+    w.pts[nh + j] = p + earth::Vec3{h, 0, 0};
+    w.pts[2 * nh + j] = p + earth::Vec3{0, h, 0};
+    w.pts[3 * nh + j] = p + earth::Vec3{0, 0, h};
   }
-  shell.value(pts.data(), 4 * nh, vals.data());
+  shell.value(w.pts.data(), 4 * nh, w.vals.data());
   for (std::size_t j = 0; j < nh; ++j) {
-    const Ray& r = rays[j];
-    ShellHit& hit = hits[r.i];
-    const double s_hit = r.k_hit == 0 ? 0.0 : r.hi;
+    const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
+    ShellHit& hit = hits[w.idx[j]];
+    const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
     hit.hit = true;
-    hit.t = r.path.t_at(s_hit);
-    hit.position = pts[j];
+    hit.t = s_hit <= w.mla[j] ? w.ma0[j] + s_hit : w.mb0[j] + (s_hit - w.mla[j]);
+    hit.position = w.pts[j];
     // Depth: from the surface to the end of the crossing step, then the steps after it.
-    hit.depth_m = (r.k_hit * r.ds - s_hit) + r.depth_after;
-    const double v0 = vals[j];
-    const earth::Vec3 g{(vals[nh + j] - v0) / h, (vals[2 * nh + j] - v0) / h, (vals[3 * nh + j] - v0) / h};
+    hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
+    const double v0 = w.vals[j];
+    const earth::Vec3 g{(w.vals[nh + j] - v0) / h, (w.vals[2 * nh + j] - v0) / h, (w.vals[3 * nh + j] - v0) / h};
     const double gl = glm::length(g);
-    hit.normal = gl > 0 ? -g / gl : -d[r.i];
+    hit.normal = gl > 0 ? -g / gl : -dir;
   }
 }
 

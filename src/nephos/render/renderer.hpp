@@ -19,7 +19,7 @@ namespace nephos::render {
 
 struct RenderParams {
   int steps = 25;                         ///< ray-marching steps through a shell (--steps)
-  int bisection_iterations = 7;           ///< refinement of the first crossing (step / 128)
+  int bisection_iterations = 7;           ///< at most this many halvings of the first crossing (step / 128)
   double indirect_fraction = 0.3;         ///< share of scattered sunlight re-emitted diffusely by all facets
   double surface_albedo = 0.06;           ///< Lambertian albedo of the ground in solar bands (dark ocean)
   double surface_temperature_k = 288.15;  ///< used where the weather gives none
