@@ -91,11 +91,16 @@ struct MarchScratch {
   }
   // The ends of every ray's path (first n: start, next n: end) and their skip lookups.
   std::vector<double> ex, ey, ez;
-  std::vector<std::uint8_t> possible, short_arc;
+  std::vector<std::uint8_t> possible;
+  std::vector<int> segments;  // lookups per path: one per skip radius of arc (bounded)
+  // The interior lookup points of long paths, and the ray each belongs to.
+  std::vector<double> ix, iy, iz;
+  std::vector<std::uint32_t> owner;
+  std::vector<std::uint8_t> interior;
   void resize_ends(std::size_t n) {
     for (auto* v : {&ex, &ey, &ez}) v->resize(2 * n);
     possible.resize(2 * n);
-    short_arc.resize(n);
+    segments.resize(n);
   }
   void resize_marched(std::size_t n) {
     idx.resize(n);
@@ -144,10 +149,10 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   }
   // 2. Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
   //    lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
-  //    nothing more. Most paths (steep views) are shorter than one skip radius, which the
-  //    chord c between the path's ends bounds without trigonometry (arc = 2 asin(c/2) <=
-  //    c / sqrt(1 - c^2/4)): their two end lookups are batched; longer paths (towards the
-  //    limb) take their lookups one by one.
+  //    nothing more. The arc between the path's ends is bounded by its chord c without
+  //    trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)); most paths (steep views) are
+  //    shorter than one skip radius and need only their two ends. All lookups are batched:
+  //    the ends of every ray, then the interior points of the long paths still undecided.
   const double radius = shell.skip_radius_rad();
   w.resize_ends(n);
 #pragma omp simd
@@ -159,26 +164,32 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     const double r0 = std::sqrt(x0 * x0 + y0 * y0 + z0 * z0), r1 = std::sqrt(x1 * x1 + y1 * y1 + z1 * z1);
     const double cx = x0 / r0 - x1 / r1, cy = y0 / r0 - y1 / r1, cz = z0 / r0 - z1 / r1;
     const double c2 = cx * cx + cy * cy + cz * cz;
-    w.short_arc[i] = c2 < 1 && c2 < radius * radius * (1 - 0.25 * c2);
+    const double arc_bound = std::sqrt(c2 / std::max(1 - 0.25 * c2, 1e-12));
+    w.segments[i] = 1 + static_cast<int>(std::min(arc_bound / radius, 1e6));
     w.ex[i] = x0, w.ey[i] = y0, w.ez[i] = z0, w.ex[n + i] = x1, w.ey[n + i] = y1, w.ez[n + i] = z1;
   }
   shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), 2 * n, w.possible.data());
+  w.owner.clear();
+  w.ix.clear(), w.iy.clear(), w.iz.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    w.possible[i] = w.in_shell[i] && (w.possible[i] || w.possible[n + i]);
+    if (!w.in_shell[i] || w.possible[i]) continue;
+    const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
+    const int m = w.segments[i];
+    for (int j = 1; j < m; ++j) {
+      const double t = path.t_at(path.length() * j / m);
+      w.owner.push_back(static_cast<std::uint32_t>(i));
+      w.ix.push_back(std::fma(t, d[i].x, o.x)), w.iy.push_back(std::fma(t, d[i].y, o.y));
+      w.iz.push_back(std::fma(t, d[i].z, o.z));
+    }
+  }
+  w.interior.resize(w.owner.size());
+  shell.may_have_cloud(w.ix.data(), w.iy.data(), w.iz.data(), w.owner.size(), w.interior.data());
+  for (std::size_t k = 0; k < w.owner.size(); ++k) w.possible[w.owner[k]] |= w.interior[k];
   std::size_t nr = 0;
   w.idx.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!w.in_shell[i]) continue;
-    bool possible = w.possible[i] || w.possible[n + i];
-    if (!w.short_arc[i] && !possible) {
-      const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
-      const earth::Vec3 a = glm::normalize(o + path.t_at(0) * d[i]);
-      const earth::Vec3 b = glm::normalize(o + path.t_at(path.length()) * d[i]);
-      const double arc = std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-      const int m = 1 + static_cast<int>(arc / radius);
-      for (int j = 1; j < m && !possible; ++j)
-        possible = shell.may_have_cloud(o + path.t_at(path.length() * j / m) * d[i]);
-    }
-    if (possible) w.idx[nr++] = static_cast<std::uint32_t>(i);
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
   if (nr == 0) return;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
