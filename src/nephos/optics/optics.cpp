@@ -96,7 +96,10 @@ SlabResult two_stream_slab(double tau, double omega) {
     return {omega * tau / (1 + tau), 1 / (1 + tau)};
   }
   if (k * tau > 350) return {omega / (k + 1), 0.0};  // semi-infinite: sinh/cosh overflow guard
-  const double sh = std::sinh(k * tau), ch = std::cosh(k * tau);
+  // sinh and cosh from one expm1 (the renderer calls this per pixel and band): with
+  // e = exp(x), sinh x = expm1(x) (e + 1) / (2 e) keeps full relative precision at small x.
+  const double em = std::expm1(k * tau), e = 1 + em;
+  const double sh = 0.5 * em * (e + 1) / e, ch = sh + 1 / e;
   const double d = k * ch + sh;
   return {omega * sh / d, k / d};
 }
