@@ -400,6 +400,7 @@ struct FlyOptions {
   bool no_sort_opt = false;
   bool no_impostors = false;
   double impostor_radius_km = 8;  // MSFS 2004's ring radius
+  double lod_km = 20;             // single-sprite level of detail beyond this (0: off)
   std::string change;             // CODE@SECONDS: the weather changes to CODE at that time of the flight
   std::string gl = "gles3";       // OpenGL ES 3.0 or desktop OpenGL 3.3 core
   std::string out = "out/fly";
@@ -424,6 +425,11 @@ void add_flight_options(CLI::App* c, FlyOptions& o) {
   c->add_flag("--no-impostors", o.no_impostors, "Draw every cloud as sprites (no impostor ring)");
   c->add_option("--impostor-radius-km", o.impostor_radius_km, "Radius of the impostor ring [km]")
       ->capture_default_str();
+  c->add_option("--lod-km", o.lod_km,
+                "Clouds drawn as sprites farther than this are drawn as one sprite (level of detail) [km]; 0: "
+                "every sprite")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   c->add_option("--gl", o.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
 }
 
@@ -454,6 +460,7 @@ int run_view_command(const FlyOptions& o, const std::string& screenshot, const G
   v.altitude_m = o.altitude_ft * 0.3048;
   v.speed_m_s = o.speed_kt * 0.514444;
   v.impostor_radius_m = o.impostor_radius_km * 1000;
+  v.single_sprite_distance_m = o.lod_km * 1000;
   v.impostors = !o.no_impostors;
   v.screenshot = screenshot;
   v.seed = g.seed;
@@ -483,6 +490,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   realtime::SpriteRenderer renderer(width, height, g.seed, realtime::gl_api_from_name(o.gl));
   spdlog::info("OpenGL: {}", renderer.gl_version());
   renderer.set_impostor_radius(o.impostor_radius_km * 1000);
+  renderer.set_single_sprite_distance(o.lod_km * 1000);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
   realtime::ResortPolicy policy;
   const fs::path out(o.out);

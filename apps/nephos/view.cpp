@@ -107,6 +107,7 @@ int run_view(const ViewOptions& o) {
   // The renderer draws at the requested size off screen; present() scales it to the window.
   realtime::SpriteRenderer renderer(realtime::SpriteRenderer::UseCurrentContext{}, o.width, o.height, o.seed, o.api);
   renderer.set_impostor_radius(o.impostor_radius_m);
+  renderer.set_single_sprite_distance(o.single_sprite_distance_m);
   spdlog::info("OpenGL: {}; keys: arrows or A/D turn and climb, W/S speed, I impostors, Q/Esc quit; drag to look",
                renderer.gl_version());
   realtime::FlightControls flight;

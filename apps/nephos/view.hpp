@@ -19,6 +19,7 @@ struct ViewOptions {
   realtime::GlApi api = realtime::GlApi::gles30;
   double altitude_m = 2438, speed_m_s = 128.6;
   double impostor_radius_m = 8000;
+  double single_sprite_distance_m = 20000;  ///< level of detail (0: every sprite)
   bool impostors = true;
   int frames = 0;          ///< > 0: close after this many frames of 1/30 s of flight (scripted, deterministic)
   std::string screenshot;  ///< PNG of the last frame as shown, overlay included

@@ -59,6 +59,13 @@ void CloudField::build_sprites(SpriteCloud& c) const {
     }
   }
   c.radius_m = radius;
+  glm::vec3 centroid(0.0f);
+  for (const Sprite& sp : c.sprites) centroid += sp.offset;
+  centroid /= static_cast<float>(c.sprites.size());
+  float reach = 0;  // the sprites' extent around the centroid
+  for (const Sprite& sp : c.sprites) reach = std::max(reach, glm::length(sp.offset - centroid) + 0.5f * sp.size_m);
+  c.group_centres.push_back(centroid);
+  c.lod = {centroid, 2 * reach, (cu ? 0 : 5) + 2, groups};  // layer 2 of 5: seen from the side (0 deg)
 }
 
 CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params)

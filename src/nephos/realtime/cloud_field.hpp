@@ -31,6 +31,10 @@ struct SpriteCloud {
   /// over the field's fade time from fade_start_s; the renderer multiplies alpha by it.
   float opacity = 1, fade_from = 1, fade_to = 1;
   double fade_start_s = -1e300;
+  /// The whole cloud as one sprite, for the single-sprite level of detail far away (MSFS 2004:
+  /// "a degenerate case of the model"): at the sprites' centroid, as wide as the cloud, in a
+  /// shading group of its own centred on it (no directional term), the side view's texture.
+  Sprite lod{};
   bool fading() const { return opacity != fade_to; }
 };
 

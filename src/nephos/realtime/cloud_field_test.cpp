@@ -85,6 +85,23 @@ TEST(CloudField, DeterministicFromTheSeedAndLod) {
   EXPECT_EQ(CloudField::sprites_to_draw(cl, 5000, 20000), cl.sprites.size());
 }
 
+TEST(CloudField, LodSpriteCoversTheWholeCloud) {
+  // The single sprite drawn far away stands for every sprite of the cloud: it sits at their
+  // centroid and its disc contains each of them (to float rounding, 1e-3 m), and its shading
+  // group is centred on it (no directional term).
+  const CloudField f = field("d400", 4);
+  for (const SpriteCloud& c : f.clouds()) {
+    glm::vec3 centroid(0.0f);
+    for (const Sprite& s : c.sprites) centroid += s.offset;
+    centroid /= static_cast<float>(c.sprites.size());
+    EXPECT_LT(glm::length(c.lod.offset - centroid), 1e-3f);
+    for (const Sprite& s : c.sprites)
+      EXPECT_LE(glm::length(s.offset - c.lod.offset) + 0.5f * s.size_m, 0.5f * c.lod.size_m + 1e-3f);
+    ASSERT_LT(static_cast<std::size_t>(c.lod.shading_group), c.group_centres.size());
+    EXPECT_EQ(c.group_centres[static_cast<std::size_t>(c.lod.shading_group)], c.lod.offset);
+  }
+}
+
 }  // namespace nephos::realtime
 
 TEST(CloudField, WeatherChangesFadeCloudsInAndOut) {

@@ -20,6 +20,7 @@ namespace {
 constexpr int tex_size = 64, layers_per_type = 5;
 constexpr int impostor_size = 256;                // MSFS 2004: eight 256 x 256 impostors
 constexpr int crossfade_frames = 8;               // frames of the crossfade between two impostor sets
+constexpr std::uint32_t lod_index = 0xfffff;      // sprite index of a cloud's LOD sprite (facing-lock key)
 constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
 constexpr int particle_layer = sheet_layer + 1;   // soft round particle
 constexpr int texture_layers = particle_layer + 1;
@@ -173,6 +174,8 @@ struct SpriteRenderer::Impl {
   std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
   std::vector<float> buffer;
   std::unordered_map<std::uint64_t, glm::vec3> locked;  // facing of sprites the camera is inside
+  double single_sprite_distance_m = 0;                  // level of detail (0: every sprite)
+  std::uint64_t lod_signature = 0;                      // the clouds drawn as one sprite last frame
 
   // Impostor ring (MSFS 2004): two sets of 8 layers of 256x256, the front one drawn, the back
   // one being rebuilt a sector per frame, then crossfaded.
@@ -591,6 +594,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     double alpha;
   };
   std::vector<Item> items;
+  std::uint64_t lod_signature = 0;  // which clouds are drawn as their LOD sprite (order validity)
   for (const auto& c : field.clouds()) {
     double alpha = c.opacity;
     if (impostors && m.ring.valid) {
@@ -604,11 +608,19 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       }
     }
     if (alpha <= 0) continue;
+    const double lod = m.single_sprite_distance_m;
+    if (lod > 0 && CloudField::sprites_to_draw(c, glm::length(c.centre - cam.position), lod) == 1) {
+      pos.push_back(c.centre + glm::dvec3(c.lod.offset));
+      items.push_back({&c, &c.lod, lod_index, alpha});
+      lod_signature += (static_cast<std::uint64_t>(c.id) + 1) * 0x9e3779b97f4a7c15ull;
+      continue;
+    }
     for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
       pos.push_back(c.centre + glm::dvec3(c.sprites[k].offset));
       items.push_back({&c, &c.sprites[k], k, alpha});
     }
   }
+  if (lod_signature != m.lod_signature) ++m.generation, m.lod_signature = lod_signature;
   if (sort || m.order.size() != items.size() || m.order_generation != m.generation) {
     m.order = back_to_front(pos, cam.position);
     m.order_generation = m.generation;
@@ -675,6 +687,12 @@ FrameStats SpriteRenderer::draw_points(const PointSprites& sp, const Camera& cam
 }
 
 const ImpostorRing& SpriteRenderer::impostor_ring() const { return impl_->ring; }
+
+void SpriteRenderer::set_single_sprite_distance(double distance_m) {
+  if (!(distance_m >= 0))
+    throw ValueError("the single-sprite distance must be >= 0 m (0: off)", {.key = "single_sprite_distance_m"});
+  impl_->single_sprite_distance_m = distance_m;
+}
 
 void SpriteRenderer::set_impostor_radius(double radius_m) {
   if (!(radius_m > 0)) throw ValueError("the impostor ring radius must be > 0 m", {.key = "impostor_radius_m"});

@@ -73,6 +73,11 @@ class SpriteRenderer {
   /// The impostor ring's parameters and state (radius, thresholds; valid after a draw).
   const ImpostorRing& impostor_ring() const;
   void set_impostor_radius(double radius_m);
+  /// Single-sprite level of detail: a cloud drawn as sprites whose centre is farther than
+  /// `distance_m` from the camera is drawn as its one LOD sprite (SpriteCloud::lod); 0 (the
+  /// default) draws every sprite. With the impostor ring on, it applies to the clouds the ring
+  /// does not hold (forming or dissipating, or beyond the 10,000 ft rule).
+  void set_single_sprite_distance(double distance_m);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// Copies the last frame into the current context's default framebuffer (window mode),

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "nephos/core/error.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace nephos::realtime {
@@ -47,6 +48,37 @@ TEST(SpriteRendererGl, FacingLocksWithinHalfASpritesRadiusAndReleasesOutside) {
   EXPECT_EQ(locked_at(0.45, {1, 0, 0}), 1u);  // just inside half the radius: locked
   EXPECT_EQ(locked_at(0.45, {0, 1, 0}), 1u);  // turning the camera inside keeps the lock
   EXPECT_EQ(locked_at(0.55, {0, 1, 0}), 0u);  // just outside: released
+}
+
+TEST(SpriteRendererGl, SingleSpriteLevelOfDetailFarAway) {
+  // Seed 004: beyond the LOD distance a cloud is one sprite. Without the impostor ring, the
+  // sprites drawn are each near cloud's sprites plus one per far cloud, counted from the field;
+  // distance 0 draws every sprite. Far clouds still show: the frame differs from the sky.
+  const glm::dvec3 eye{0, 0, 2400};
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 5, eye);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera cam{eye, {1, 0, -0.05}, {0, 0, 1}, 60};
+  SpriteRenderer renderer(96, 64, 5);
+  const double lod_m = 12000;
+  std::size_t expected = 0, far = 0;
+  for (const SpriteCloud& c : field.clouds()) {
+    const bool is_far = glm::length(c.centre - eye) > lod_m;
+    far += is_far;
+    expected += is_far ? 1 : c.sprites.size();
+  }
+  ASSERT_GT(far, 10u);
+  EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());  // default: off
+  renderer.set_single_sprite_distance(lod_m);
+  EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, expected);
+  const auto px = renderer.read_pixels();
+  const auto sky = SpriteRenderer::sky_colour();
+  std::size_t cloudy = 0;
+  for (std::size_t i = 0; i < px.size(); i += 4)
+    cloudy += px[i] != sky[0] || px[i + 1] != sky[1] || px[i + 2] != sky[2];
+  EXPECT_GT(cloudy, 100u);
+  renderer.set_single_sprite_distance(0);
+  EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());
+  EXPECT_THROW(renderer.set_single_sprite_distance(-1), ValueError);
 }
 
 }  // namespace nephos::realtime
