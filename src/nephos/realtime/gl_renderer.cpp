@@ -137,13 +137,13 @@ out vec4 frag;
 void main() {
   vec4 t = texture(sprites, v_uvl);  // premultiplied
   vec3 c = v_colour.rgb;
-  if (v_diffuse != vec3(0.0)) {  // sprites only (sheets, impostors and particles have none)
-    // Thesis B.7: the billboard normal, turned to the sun's side of the view, bent outwards by
-    // the fragment's offset from the centre; wrapped diffuse (n.l + 1) / 2.
-    vec3 n = dot(cam_front, sun_dir) < 0.0 ? -cam_front : cam_front;
-    n = normalize(n + 0.5 * v_bend);
-    c = min(c + v_diffuse * (0.5 * (dot(n, sun_dir) + 1.0)), vec3(1.0));
-  }
+#ifdef BENT_NORMAL
+  // Sprites only: thesis B.7, the billboard normal, turned to the sun's side of the view, bent
+  // outwards by the fragment's offset from the centre; wrapped diffuse (n.l + 1) / 2.
+  vec3 n = dot(cam_front, sun_dir) < 0.0 ? -cam_front : cam_front;
+  n = normalize(n + 0.5 * v_bend);
+  c = min(c + v_diffuse * (0.5 * (dot(n, sun_dir) + 1.0)), vec3(1.0));
+#endif
   frag = vec4(t.rgb * c, t.a) * v_colour.a;
 }
 )";
@@ -168,8 +168,15 @@ GLuint compile(GLenum type, const std::string& src) {
 struct SpriteRenderer::Impl {
   EGLDisplay dpy = EGL_NO_DISPLAY;
   EGLContext ctx = EGL_NO_CONTEXT;
-  GLuint fbo = 0, colour = 0, depth = 0, program = 0, vao = 0, quad = 0, instances = 0, texture = 0;
-  GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1;
+  GLuint fbo = 0, colour = 0, depth = 0, vao = 0, quad = 0, instances = 0, texture = 0;
+  // Two programs from the same source: sprites with the bent-normal diffuse term, and everything
+  // else (flat layers, impostor quads, particles) without it. On llvmpipe a shader pays for a
+  // branch's body on every fragment, which made the flat layers cost twice as much.
+  struct Program {
+    GLuint id = 0;
+    GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1;
+  };
+  Program lit, plain;
   std::vector<std::size_t> order;
   std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
   std::vector<float> buffer;
@@ -299,19 +306,23 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   // construct used here, and 3.30 accepts (and ignores) the precision statements.
   const std::string version = std::string(api_ == GlApi::gl33 ? "#version 330 core\n" : "#version 300 es\n") +
                               "precision highp float;\nprecision highp sampler2DArray;\n";
-  m.program = glCreateProgram();
-  glAttachShader(m.program, compile(GL_VERTEX_SHADER, version + vertex_body));
-  glAttachShader(m.program, compile(GL_FRAGMENT_SHADER, version + fragment_body));
-  glLinkProgram(m.program);
-  GLint ok = 0;
-  glGetProgramiv(m.program, GL_LINK_STATUS, &ok);
-  if (!ok) throw IoError("OpenGL ES: shader program does not link");
-  m.u_view_proj = glGetUniformLocation(m.program, "view_proj");
-  m.u_right = glGetUniformLocation(m.program, "cam_right");
-  m.u_up = glGetUniformLocation(m.program, "cam_up");
-  m.u_sprites = glGetUniformLocation(m.program, "sprites");
-  m.u_sun = glGetUniformLocation(m.program, "sun_dir");
-  m.u_front = glGetUniformLocation(m.program, "cam_front");
+  auto link = [&](Impl::Program& p, const std::string& defines) {
+    p.id = glCreateProgram();
+    glAttachShader(p.id, compile(GL_VERTEX_SHADER, version + vertex_body));
+    glAttachShader(p.id, compile(GL_FRAGMENT_SHADER, version + defines + fragment_body));
+    glLinkProgram(p.id);
+    GLint ok = 0;
+    glGetProgramiv(p.id, GL_LINK_STATUS, &ok);
+    if (!ok) throw IoError("OpenGL ES: shader program does not link");
+    p.u_view_proj = glGetUniformLocation(p.id, "view_proj");
+    p.u_right = glGetUniformLocation(p.id, "cam_right");
+    p.u_up = glGetUniformLocation(p.id, "cam_up");
+    p.u_sprites = glGetUniformLocation(p.id, "sprites");
+    p.u_sun = glGetUniformLocation(p.id, "sun_dir");
+    p.u_front = glGetUniformLocation(p.id, "cam_front");
+  };
+  link(m.lit, "#define BENT_NORMAL 1\n");
+  link(m.plain, "");
 
   const auto pixels = bake_sprites(seed);
   glGenTextures(1, &m.texture);
@@ -373,7 +384,8 @@ SpriteRenderer::~SpriteRenderer() {
   }
 }
 
-void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear) {
+void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
+                            bool bent_normal) {
   auto& m = *impl_;
   const Camera& cam = target.camera;
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
@@ -402,14 +414,15 @@ void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t
   if (count == 0) return;
   glEnable(GL_BLEND);
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // premultiplied alpha
-  glUseProgram(m.program);
-  glUniformMatrix4fv(m.u_view_proj, 1, GL_FALSE, &vp[0][0]);
-  glUniform3f(m.u_right, static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z));
-  glUniform3f(m.u_up, static_cast<float>(u.x), static_cast<float>(u.y), static_cast<float>(u.z));
-  glUniform3f(m.u_front, static_cast<float>(f.x), static_cast<float>(f.y), static_cast<float>(f.z));
-  glUniform3f(m.u_sun, static_cast<float>(target.sun.x), static_cast<float>(target.sun.y),
+  const Impl::Program& p = bent_normal ? m.lit : m.plain;
+  glUseProgram(p.id);
+  glUniformMatrix4fv(p.u_view_proj, 1, GL_FALSE, &vp[0][0]);
+  glUniform3f(p.u_right, static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z));
+  glUniform3f(p.u_up, static_cast<float>(u.x), static_cast<float>(u.y), static_cast<float>(u.z));
+  glUniform3f(p.u_front, static_cast<float>(f.x), static_cast<float>(f.y), static_cast<float>(f.z));
+  glUniform3f(p.u_sun, static_cast<float>(target.sun.x), static_cast<float>(target.sun.y),
               static_cast<float>(target.sun.z));
-  glUniform1i(m.u_sprites, 0);
+  glUniform1i(p.u_sprites, 0);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
   glBindVertexArray(m.vao);
@@ -474,7 +487,7 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
     push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, 1.0,
                   sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
   }
-  submit(t, 0, order.size(), m.texture, true);
+  submit(t, 0, order.size(), m.texture, true, true);
 }
 
 FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort,
@@ -651,9 +664,10 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // every flat layer and sprite in one instanced call.
   const Target target = screen(cam, sun);
   const std::size_t rings = ring_quads[0] + ring_quads[1];
-  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true);
-  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false);
-  submit(target, rings, m.buffer.size() / 17 - rings, m.texture, false);
+  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true, false);
+  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, false);
+  submit(target, rings, flats.size(), m.texture, false, false);
+  submit(target, rings + flats.size(), m.buffer.size() / 17 - rings - flats.size(), m.texture, false, true);
   glFinish();
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   stats.sprites = items.size();
@@ -678,7 +692,7 @@ FrameStats SpriteRenderer::draw_points(const PointSprites& sp, const Camera& cam
     b[16] = 1;
   }
   SunLight none{{0, 0, 1}, {0, 0, 0}, 90};
-  submit(screen(cam, none), 0, n, impl_->texture, true);
+  submit(screen(cam, none), 0, n, impl_->texture, true, false);
   glFinish();
   FrameStats s;
   s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -106,8 +106,10 @@ class SpriteRenderer {
     glm::dvec3 sun{0, 0, 1};
   };
   Target screen(const Camera& camera, const SunLight& sun) const;
-  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
-  void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear);
+  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call,
+  /// with the sprites' bent-normal diffuse term or without it (flat layers, impostors, particles).
+  void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
+              bool bent_normal);
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
   void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
                        const Camera& camera);
