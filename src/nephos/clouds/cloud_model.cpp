@@ -206,7 +206,7 @@ double CloudShell::mask_at(const earth::Vec3& p) const {
   // The arithmetic of evaluate()'s first stage, so that the skip map bounds exactly the
   // values evaluate() sees.
   const double r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
-  return mask_->sample(maps_[0].upwind(p / r));
+  return mask_->sample(maps_[0].upwind(p * (1 / r)));
 }
 
 double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
@@ -284,7 +284,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
     for (std::size_t j = 0; j < m; ++j) {
       const earth::Vec3& q = p[c0 + j];
       const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-      w.r[j] = r, w.x[j] = q.x / r, w.y[j] = q.y / r, w.z[j] = q.z / r;
+      const double inv_r = 1 / r;  // one division instead of three
+      w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
     }
     maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
 #pragma omp simd
@@ -323,11 +324,11 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
       if (!same_upwind) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
       const noise::Texture3D& tex = (*tex_)[i];
-      const double ls = term.length_scale_m;
+      const double inv_ls = 1 / term.length_scale_m;
       Footprints& f = w.f[t];
 #pragma omp simd
       for (std::size_t a = 0; a < nlive; ++a) {
-        const double k = w.lr[a] / ls;
+        const double k = w.lr[a] * inv_ls;
         const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
         f.set(a, tex.footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
                                static_cast<float>(qz - std::floor(qz))));
