@@ -69,7 +69,7 @@ void CloudField::build_sprites(SpriteCloud& c) const {
 }
 
 CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params)
-    : seed_(seed), p_(params) {
+    : seed_(seed), p_(params), drift_m_s_(recipe.drift_east_m_s, recipe.drift_north_m_s) {
   std::uint32_t id = 0;
   layers_ = flat_layers_of(recipe);
   for (const auto& layer : recipe.layers) {
@@ -143,6 +143,7 @@ std::vector<FlatLayer> CloudField::flat_layers_of(const CloudRecipe& recipe) con
 
 void CloudField::change_weather(const CloudRecipe& recipe, double now_s, const glm::dvec3& camera) {
   advance_time(now_s);
+  drift_m_s_ = {recipe.drift_east_m_s, recipe.drift_north_m_s};
   auto fade = [&](auto& x, float to) {
     x.fade_from = x.opacity;
     x.fade_to = to;
@@ -192,6 +193,10 @@ void CloudField::change_weather(const CloudRecipe& recipe, double now_s, const g
 }
 
 void CloudField::advance_time(double now_s) {
+  // The clouds drift with the wind (GFS recipes; zero for weather codes and METAR).
+  const glm::dvec2 shift = drift_m_s_ * (now_s - now_s_);
+  drift_offset_m_ += shift;
+  for (auto& c : clouds_) c.centre += glm::dvec3(shift, 0.0);
   now_s_ = now_s;
   auto update = [&](auto& x) {
     const double t = std::clamp((now_s - x.fade_start_s) / p_.fade_s, 0.0, 1.0);

@@ -63,8 +63,12 @@ class CloudField {
   /// (fade out, then are removed) and missing ones form around the camera (fade in); flat layers
   /// that go away fade out, new ones fade in. Nothing pops.
   void change_weather(const CloudRecipe& recipe, double now_s, const glm::dvec3& camera);
-  /// Advances fades to now_s and removes clouds and layers that have fully dissipated.
+  /// Advances fades to now_s, moves every cloud with the recipe's wind (drift) over the time
+  /// since the last call, and removes clouds and layers that have fully dissipated.
   void advance_time(double now_s);
+  /// How far the air (and with it the flat layers' pattern) has drifted since the start [m,
+  /// east and north].
+  glm::dvec2 drift_offset_m() const { return drift_offset_m_; }
   double time_s() const { return now_s_; }
   const std::vector<SpriteCloud>& clouds() const { return clouds_; }
   const std::vector<FlatLayer>& layers() const { return layers_; }
@@ -84,6 +88,7 @@ class CloudField {
   std::vector<FlatLayer> layers_;
   std::uint32_t next_id_ = 0;
   double now_s_ = 0;
+  glm::dvec2 drift_m_s_{0.0}, drift_offset_m_{0.0};  // wind [m/s] and the displacement it caused
 };
 
 }  // namespace nephos::realtime

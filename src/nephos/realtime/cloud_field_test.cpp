@@ -85,6 +85,31 @@ TEST(CloudField, DeterministicFromTheSeedAndLod) {
   EXPECT_EQ(CloudField::sprites_to_draw(cl, 5000, 20000), cl.sprites.size());
 }
 
+TEST(CloudField, CloudsDriftWithTheWind) {
+  // A GFS recipe carries the wind at the aircraft; every cloud moves with it: after t seconds
+  // by (u t, v t), exactly (no relocation in between), and the air's offset says the same.
+  CloudRecipe r = recipe_from_code(parse_weather_code("d300"));
+  r.drift_east_m_s = 5, r.drift_north_m_s = -3;
+  CloudField f(r, 2, {0, 0, 0});
+  std::vector<glm::dvec3> before;
+  for (const SpriteCloud& c : f.clouds()) before.push_back(c.centre);
+  f.advance_time(4);
+  f.advance_time(10);
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    // Tolerance: two double additions of tens of metres to kilometre coordinates (1e-9 m).
+    EXPECT_NEAR(f.clouds()[k].centre.x - before[k].x, 50.0, 1e-9);
+    EXPECT_NEAR(f.clouds()[k].centre.y - before[k].y, -30.0, 1e-9);
+    EXPECT_EQ(f.clouds()[k].centre.z, before[k].z);
+  }
+  EXPECT_NEAR(f.drift_offset_m().x, 50.0, 1e-12);
+  EXPECT_NEAR(f.drift_offset_m().y, -30.0, 1e-12);
+  // Weather codes carry no wind: the clouds stay.
+  CloudField still = field("d300", 2);
+  const glm::dvec3 c0 = still.clouds()[0].centre;
+  still.advance_time(10);
+  EXPECT_EQ(still.clouds()[0].centre, c0);
+}
+
 TEST(CloudField, LodSpriteCoversTheWholeCloud) {
   // The single sprite drawn far away stands for every sprite of the cloud: it sits at their
   // centroid and its disc contains each of them (to float rounding, 1e-3 m), and its shading

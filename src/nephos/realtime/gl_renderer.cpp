@@ -92,7 +92,8 @@ layout(location = 1) in vec4 pos_size;      // position relative to the camera [
 layout(location = 2) in vec4 colour_alpha;  // shaded colour, alpha (opacity: formation, crossfade)
 layout(location = 3) in vec2 layer_tiles;   // texture layer; y > 0: horizontal sheet tiled y times;
                                             // y < 0: impostor quad (render-to-texture, v flipped)
-layout(location = 4) in vec3 diffuse;       // colour of the bent-normal diffuse term (thesis B.7)
+layout(location = 4) in vec3 diffuse;       // colour of the bent-normal diffuse term (thesis B.7);
+                                            // sheets: xy = texture offset [tiles] (ground-fixed)
 layout(location = 5) in vec4 facing_aspect; // fixed facing (away from the viewer) and height/width;
                                             // zero: a camera-facing billboard
 uniform mat4 view_proj;
@@ -119,7 +120,7 @@ void main() {
   gl_Position = view_proj * vec4(p, 1.0);
   vec2 uv = corner * vec2(0.5, -0.5) + 0.5;
   if (layer_tiles.y < 0.0) uv.y = 1.0 - uv.y;
-  v_uvl = vec3(layer_tiles.y > 0.0 ? uv * layer_tiles.y : uv, layer_tiles.x);
+  v_uvl = vec3(layer_tiles.y > 0.0 ? uv * layer_tiles.y + diffuse.xy : uv, layer_tiles.x);
   v_colour = colour_alpha;
   v_diffuse = diffuse;
   v_bend = corner.x * ax + corner.y * ay;  // fragment - billboard centre, in half-sizes
@@ -593,9 +594,15 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     const bool cirrus = l->type == SpriteCloudType::cirrus, fog = l->type == SpriteCloudType::low_stratus;
     const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = (cirrus ? 0.45 : fog ? 0.9 : 0.7) * l->opacity;
     const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
-    const double size = 2 * l->extent_m;
-    push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer,
-                  size / (cirrus ? 6000.0 : 3000.0), glm::dvec3(0.0), glm::dvec3(0.0), 1.0);
+    const double size = 2 * l->extent_m, tile_m = cirrus ? 6000.0 : 3000.0;
+    // The sheet is centred on the camera but its pattern belongs to the air: the texture is
+    // offset by where the camera is relative to the drifting air (in tiles; texture v runs
+    // south), so that flying under a layer moves its pattern past, as it moves sprite clouds.
+    const glm::dvec2 air = glm::dvec2(cam.position) - field.drift_offset_m();
+    const glm::dvec3 offset{air.x / tile_m - std::floor(air.x / tile_m), -air.y / tile_m - std::floor(-air.y / tile_m),
+                            0.0};
+    push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer, size / tile_m, offset,
+                  glm::dvec3(0.0), 1.0);
   }
   // Sprites of the clouds not in an impostor; during a crossfade a cloud in only one set is
   // also drawn as sprites, fading against that set.

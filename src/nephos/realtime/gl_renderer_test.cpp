@@ -81,4 +81,37 @@ TEST(SpriteRendererGl, SingleSpriteLevelOfDetailFarAway) {
   EXPECT_THROW(renderer.set_single_sprite_distance(-1), ValueError);
 }
 
+TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
+  // An altostratus sheet is drawn around the camera, but its pattern must not travel with the
+  // aircraft: moving the camera by one texture tile (3 km) gives the same frame (the tiling is
+  // periodic), by half a tile a different one; drifting the air by a tile while the camera
+  // stays gives the same frame again.
+  CloudRecipe r;
+  r.layers.push_back({SpriteCloudType::altostratus, 1, 4000, 5000, 8});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(96, 64, 7);
+  auto frame = [&](const CloudField& field, double x) {
+    renderer.draw(field, Camera{{x, 0, 1000}, {1, 0, 0.3}, {0, 0, 1}, 60}, sun, true, false);
+    return renderer.read_pixels();
+  };
+  // Largest difference of any channel between two frames.
+  auto max_diff = [](const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+    int d = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, std::abs(int{a[i]} - int{b[i]}));
+    return d;
+  };
+  const CloudField still(r, 7, {0, 0, 1000});
+  const auto at0 = frame(still, 0), at_tile = frame(still, 3000), at_half = frame(still, 1500);
+  // A tile's move changes the texture coordinates by exactly 1 in float arithmetic of values
+  // near 15: at most one 8-bit level from rounding.
+  EXPECT_LE(max_diff(at0, at_tile), 1);
+  EXPECT_GT(max_diff(at0, at_half), 20);
+  r.drift_east_m_s = 300;  // 3 km in 10 s
+  CloudField windy(r, 7, {0, 0, 1000});
+  windy.advance_time(10);
+  EXPECT_LE(max_diff(at0, frame(windy, 0)), 1);
+  windy.advance_time(15);  // half a tile more
+  EXPECT_GT(max_diff(at0, frame(windy, 0)), 20);
+}
+
 }  // namespace nephos::realtime
