@@ -33,7 +33,8 @@ struct ImpostorRing {
   double radius_m = 8000;
   double horizontal_fraction = 0.15, vertical_fraction = 0.02;
   double max_vertical_offset_m = 10000 * 0.3048;
-  glm::dvec3 centre{0};  ///< camera position when the impostors were made
+  glm::dvec3 centre{0};  ///< camera position when the impostors were made, in the air's frame
+                         ///< (world minus the clouds' drift, CloudField::drift_offset_m)
   bool valid = false;
 
   bool needs_update(const glm::dvec3& camera) const;

@@ -496,6 +496,9 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   auto& m = *impl_;
   const auto t0 = std::chrono::steady_clock::now();
   FrameStats stats;
+  // The impostor ring lives in the frame of the (drifting) air, like the clouds it holds: its
+  // centre and the re-render thresholds are measured there, and its quads drift with the wind.
+  const glm::dvec3 air(field.drift_offset_m(), 0.0), cam_air = cam.position - air;
   // The clouds an impostor set holds, and the vertical extent of its images: MSFS 2004 moves the
   // impostors up or down to where the clouds are; nephos fits an off-centre frustum to them
   // (within the +-10,000 ft rule's angle), so their texels and fill cover clouds, not sky.
@@ -527,21 +530,21 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     m.ring.valid = false;
     m.next_sector = m.crossfade = -1;
   } else if (!m.ring.valid) {  // first frame: the whole front set at once
-    m.ring.centre = cam.position;
+    m.ring.centre = cam_air;
     capture(m.front, cam.position);
     for (int k = 0; k < 8; ++k) render_impostor(m.front, k, cam.position, field, sun, cam);
     stats.impostor_updates = 8;
-    m.ring.rebuilt_at(cam.position);
+    m.ring.rebuilt_at(cam_air);
     ++m.generation;
   } else {
     const int back = 1 - m.front;
-    if (m.next_sector < 0 && m.crossfade < 0 && m.ring.needs_update(cam.position)) {
-      m.back_centre = cam.position;
+    if (m.next_sector < 0 && m.crossfade < 0 && m.ring.needs_update(cam_air)) {
+      m.back_centre = cam_air;
       capture(back, cam.position);
       m.next_sector = 0;
     }
     if (m.next_sector >= 0) {
-      render_impostor(back, m.next_sector, m.back_centre, field, sun, cam);
+      render_impostor(back, m.next_sector, m.back_centre + air, field, sun, cam);
       stats.impostor_updates = 1;
       if (++m.next_sector == 8) m.next_sector = -1, m.crossfade = 0;
     } else if (m.crossfade >= 0) {
@@ -576,7 +579,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
         if (m.sector_empty[set][static_cast<std::size_t>(k)]) continue;  // no fill for empty sky
         const double a = k * M_PI / 4;
         const glm::dvec3 d{std::cos(a), std::sin(a), 0};
-        push_instance(m.buffer, centre + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
+        push_instance(m.buffer, centre + air + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
                       glm::dvec3(1.0), weight, k, -1.0, glm::dvec3(0.0), d, aspect);
         ++ring_quads[which];
       }
@@ -598,9 +601,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     // The sheet is centred on the camera but its pattern belongs to the air: the texture is
     // offset by where the camera is relative to the drifting air (in tiles; texture v runs
     // south), so that flying under a layer moves its pattern past, as it moves sprite clouds.
-    const glm::dvec2 air = glm::dvec2(cam.position) - field.drift_offset_m();
-    const glm::dvec3 offset{air.x / tile_m - std::floor(air.x / tile_m), -air.y / tile_m - std::floor(-air.y / tile_m),
-                            0.0};
+    const double u = cam_air.x / tile_m, v = -cam_air.y / tile_m;
+    const glm::dvec3 offset{u - std::floor(u), v - std::floor(v), 0.0};
     push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer, size / tile_m, offset,
                   glm::dvec3(0.0), 1.0);
   }

@@ -114,4 +114,37 @@ TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
   EXPECT_GT(max_diff(at0, frame(windy, 0)), 20);
 }
 
+TEST(SpriteRendererGl, ImpostorRingLivesInTheDriftingAir) {
+  // The ring's thresholds (15 % of its radius horizontally) are measured in the frame of the air
+  // the clouds drift with: an aircraft drifting with a 100 m/s wind sees no re-render in 30 s
+  // (3 km of drift, more than the 1.2 km threshold); a camera held still in the same wind does,
+  // once the air has moved 1.2 km past it (after 12 s).
+  CloudRecipe r = recipe_from_code(parse_weather_code("d300"));
+  r.drift_east_m_s = 100;
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  for (const bool with_air : {true, false}) {
+    SpriteRenderer renderer(64, 48, 3);
+    CloudField field(r, 3, {0, 0, 2400});
+    int updates_after_first = 0;
+    double first_update_s = -1;
+    for (int f = 0; f <= 30; ++f) {  // one frame per second
+      field.advance_time(f);
+      const Camera cam{{with_air ? 100.0 * f : 0.0, 0, 2400}, {1, 0, 0}, {0, 0, 1}, 60};
+      const int u = renderer.draw(field, cam, sun, true, true).impostor_updates;
+      if (f == 0) {
+        EXPECT_EQ(u, 8);
+        continue;
+      }
+      updates_after_first += u;
+      if (u > 0 && first_update_s < 0) first_update_s = f;
+    }
+    if (with_air) {
+      EXPECT_EQ(updates_after_first, 0);
+    } else {
+      EXPECT_GT(updates_after_first, 0);
+      EXPECT_EQ(first_update_s, 13);  // 1300 m > 1200 m; 1200 m is not yet past the threshold
+    }
+  }
+}
+
 }  // namespace nephos::realtime
