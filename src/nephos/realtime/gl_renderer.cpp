@@ -530,7 +530,6 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     m.ring.valid = false;
     m.next_sector = m.crossfade = -1;
   } else if (!m.ring.valid) {  // first frame: the whole front set at once
-    m.ring.centre = cam_air;
     capture(m.front, cam.position);
     for (int k = 0; k < 8; ++k) render_impostor(m.front, k, cam.position, field, sun, cam);
     stats.impostor_updates = 8;
@@ -669,8 +668,9 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   m.locked = std::move(locked);
   stats.locked_sprites = m.locked.size();
 
-  // Draws: the sky and the ring (one per impostor set: each set is its own texture array), then
-  // every flat layer and sprite in one instanced call.
+  // Draws: the sky and the ring (one per impostor set: each set is its own texture array), the
+  // flat layers, then every sprite in one instanced call (the layers without the sprites'
+  // bent-normal term).
   const Target target = screen(cam, sun);
   const std::size_t rings = ring_quads[0] + ring_quads[1];
   submit(target, 0, ring_quads[0], m.imp_tex[m.front], true, false);

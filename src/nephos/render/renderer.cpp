@@ -75,8 +75,9 @@ struct Roots {
 // Per-thread scratch of march_shell(), structure of arrays (one row of rays at a time), kept
 // between calls so that marching a row allocates nothing.
 struct MarchScratch {
-  // Every ray: its path through the shell, [a0, a0 + la] then [b0, b1] (see Path).
-  std::vector<double> a0, la, b0, b1;
+  // Every ray: its path through the shell, [a0, a0 + la] then [b0, b1] (see Path), and its
+  // length.
+  std::vector<double> a0, la, b0, b1, len;
   std::vector<std::uint8_t> in_shell;
   // The rays marched (possible cloud on their path), compacted.
   std::vector<std::uint32_t> idx, act;
@@ -86,7 +87,7 @@ struct MarchScratch {
   std::vector<earth::Vec3> pts;
   std::vector<double> vals;
   void resize_rays(std::size_t n) {
-    for (auto* v : {&a0, &la, &b0, &b1}) v->resize(n);
+    for (auto* v : {&a0, &la, &b0, &b1, &len}) v->resize(n);
     in_shell.resize(n);
   }
   // The ends of every ray's path (first n: start, next n: end) and their skip lookups.
@@ -143,9 +144,9 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     b1 = ahead ? t1 : b1;
     a0 = from_exit ? inner.t1 : a0;
     ok = ok && !(from_exit && a0 >= t1);
-    const double la = a1 - a0;
-    ok = ok && la + std::max(0.0, b1 - b0) > 0;
-    w.a0[i] = a0, w.la[i] = la, w.b0[i] = b0, w.b1[i] = b1, w.in_shell[i] = ok;
+    const double la = a1 - a0, len = la + std::max(0.0, b1 - b0);
+    ok = ok && len > 0;
+    w.a0[i] = a0, w.la[i] = la, w.b0[i] = b0, w.b1[i] = b1, w.len[i] = len, w.in_shell[i] = ok;
   }
   // 2. Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
   //    lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
@@ -157,7 +158,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   w.resize_ends(n);
 #pragma omp simd
   for (std::size_t i = 0; i < n; ++i) {
-    const double len = w.la[i] + std::max(0.0, w.b1[i] - w.b0[i]);
+    const double len = w.len[i];
     const double t0 = w.a0[i], t1 = len <= w.la[i] ? w.a0[i] + len : w.b0[i] + (len - w.la[i]);
     const double x0 = std::fma(t0, d[i].x, o.x), y0 = std::fma(t0, d[i].y, o.y), z0 = std::fma(t0, d[i].z, o.z);
     const double x1 = std::fma(t1, d[i].x, o.x), y1 = std::fma(t1, d[i].y, o.y), z1 = std::fma(t1, d[i].z, o.z);
@@ -195,13 +196,14 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   for (std::size_t j = 0; j < nr; ++j) {
     const std::uint32_t i = w.idx[j];
     w.ma0[j] = w.a0[i], w.mla[j] = w.la[i], w.mb0[j] = w.b0[i];
-    w.ds[j] = (w.la[i] + std::max(0.0, w.b1[i] - w.b0[i])) / steps;
+    w.ds[j] = w.len[i] / steps;
     w.dx[j] = d[i].x, w.dy[j] = d[i].y, w.dz[j] = d[i].z;
     w.k_hit[j] = -1, w.v_prev[j] = 0, w.lo[j] = 0, w.hi[j] = 0, w.depth_after[j] = 0;
   }
-  // The point at path length s of marched ray j (Path::t_at).
-  auto point = [&o](std::size_t j, double s) {
-    const double t = s <= w.mla[j] ? w.ma0[j] + s : w.mb0[j] + (s - w.mla[j]);
+  // The ray parameter and the point at path length s of marched ray j (Path::t_at).
+  auto t_at = [](std::size_t j, double s) { return s <= w.mla[j] ? w.ma0[j] + s : w.mb0[j] + (s - w.mla[j]); };
+  auto point = [&o, &t_at](std::size_t j, double s) {
+    const double t = t_at(j, s);
     return earth::Vec3{std::fma(t, w.dx[j], o.x), std::fma(t, w.dy[j], o.y), std::fma(t, w.dz[j], o.z)};
   };
   // 3. The march.
@@ -272,7 +274,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     ShellHit& hit = hits[w.idx[j]];
     const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
     hit.hit = true;
-    hit.t = s_hit <= w.mla[j] ? w.ma0[j] + s_hit : w.mb0[j] + (s_hit - w.mla[j]);
+    hit.t = t_at(j, s_hit);
     hit.position = w.pts[j];
     // Depth: from the surface to the end of the crossing step, then the steps after it.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
