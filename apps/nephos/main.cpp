@@ -755,6 +755,10 @@ int main(int argc, char** argv) {
   auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
   bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
   bench_lbm->add_option("--repeat", lbo.repeat, "Timed repetitions (median reported)")->capture_default_str();
+  bench_lbm
+      ->add_option("--kernels", lbo.kernels,
+                   "Comma-separated subset of bgk, water, percolation, lighting, raycast (the last three run together)")
+      ->capture_default_str();
 
   try {
     app.parse(argc, argv);

@@ -1,5 +1,7 @@
 #include "nephos/lbm/bgk.hpp"
 
+#include <algorithm>
+
 #include "nephos/core/error.hpp"
 
 namespace nephos::lbm {
@@ -22,68 +24,83 @@ void BgkSolver::initialise(double rho) {
               a_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(i + 1) * n), feq[i]);
 }
 
+namespace {
+
+// Cells per chunk: one 64-byte line of each population row. A chunk's 19 populations, its
+// moments and its equilibria stay in vector registers; nothing goes through a row buffer.
+constexpr int chunk = 16;
+
+struct BgkConstants {
+  float omega, d, sfx, sfy, sfz;  // 1/xi, rest fraction, xi * force (the eq. 10 velocity shift)
+};
+
+// Collides `count` (<= chunk) cells whose pulled populations are src[i][l], l < count, into
+// post[i * chunk + l]. The body is written per cell; `omp simd` vectorises it across the chunk.
+inline void collide_chunk(const float* const* src, float* post, int count, const BgkConstants& k) {
+  using namespace d3q19;
+#pragma omp simd
+  for (int l = 0; l < count; ++l) {
+    float f[q];
+#pragma GCC unroll 19
+    for (int i = 0; i < q; ++i) f[i] = src[i][l];
+    float drho = 0, jx = 0, jy = 0, jz = 0;
+#pragma GCC unroll 19
+    for (int i = 0; i < q; ++i) {
+      drho += f[i];
+      jx += static_cast<float>(cx[static_cast<std::size_t>(i)]) * f[i];
+      jy += static_cast<float>(cy[static_cast<std::size_t>(i)]) * f[i];
+      jz += static_cast<float>(cz[static_cast<std::size_t>(i)]) * f[i];
+    }
+    const float rho = 1.0f + drho;  // populations are shifted by w_i (rho_ref = 1)
+    const float inv = 1.0f / rho;
+    const float ux = (jx + k.sfx) * inv, uy = (jy + k.sfy) * inv, uz = (jz + k.sfz) * inv;
+    const float u2 = ux * ux + uy * uy + uz * uz;
+#pragma GCC unroll 19
+    for (int i = 0; i < q; ++i) {
+      const auto e = equilibrium_coefficients<float>(i, k.d);
+      const float cu = static_cast<float>(cx[static_cast<std::size_t>(i)]) * ux +
+                       static_cast<float>(cy[static_cast<std::size_t>(i)]) * uy +
+                       static_cast<float>(cz[static_cast<std::size_t>(i)]) * uz;
+      const float feq = e.w * drho + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
+      post[i * chunk + l] = f[i] - k.omega * (f[i] - feq);
+    }
+  }
+}
+
+}  // namespace
+
 void BgkSolver::step() {
   const std::size_t n = g_.cells();
   const int nx = g_.nx;
-  const float omega = static_cast<float>(1.0 / xi_), d = static_cast<float>(d_);
   const float shift = static_cast<float>(xi_);  // u_eq = u + xi F / rho (eq. 10, tau = 1)
-  const float sfx = shift * static_cast<float>(force_[0]), sfy = shift * static_cast<float>(force_[1]),
-              sfz = shift * static_cast<float>(force_[2]);
+  const BgkConstants k{static_cast<float>(1.0 / xi_), static_cast<float>(d_), shift * static_cast<float>(force_[0]),
+                       shift * static_cast<float>(force_[1]), shift * static_cast<float>(force_[2])};
 #pragma omp parallel
   {
-    // Per-thread row buffers: populations (19 x nx) and the row's moments.
-    std::vector<float> f(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx));
-    std::vector<float> post(f.size());  // the row's post-collision populations, streamed out
-    std::vector<float> drho_v(static_cast<std::size_t>(nx)), ux_v(drho_v.size()), uy_v(drho_v.size()),
-        uz_v(drho_v.size()), rho_v(drho_v.size());
+    alignas(64) float post[d3q19::q * chunk];
+    alignas(64) float edge[d3q19::q * chunk];  // pulled populations of chunks that wrap around x
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
       for (int y = 0; y < g_.ny; ++y) {
-        gather_row(row_sources(g_, a_.data(), y, z, zb_), f.data(), static_cast<std::size_t>(nx));
-        float* drho = drho_v.data();
-        float* ux = ux_v.data();
-        float* uy = uy_v.data();
-        float* uz = uz_v.data();
-        float* rho = rho_v.data();
-        auto F = [&](int i) { return f.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx); };
-        for (int x = 0; x < nx; ++x) drho[x] = ux[x] = uy[x] = uz[x] = 0;
-#pragma GCC unroll 19
-        for (int i = 0; i < d3q19::q; ++i) {
-          const float* fi = F(i);
-          const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
-          const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
-          const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
-          for (int x = 0; x < nx; ++x) {
-            drho[x] += fi[x];
-            ux[x] += cx * fi[x];
-            uy[x] += cy * fi[x];
-            uz[x] += cz * fi[x];
-          }
-        }
-        for (int x = 0; x < nx; ++x) {  // populations are shifted by w_i (rho_ref = 1)
-          rho[x] = 1.0f + drho[x];
-          const float inv = 1.0f / rho[x];
-          ux[x] = (ux[x] + sfx) * inv;
-          uy[x] = (uy[x] + sfy) * inv;
-          uz[x] = (uz[x] + sfz) * inv;
-        }
+        const RowSources rs = row_sources(g_, a_.data(), y, z, zb_);
         float* out = b_.data() + g_.index(0, y, z);
-#pragma GCC unroll 19
-        for (int i = 0; i < d3q19::q; ++i) {
-          const float* fi = F(i);
-          float* o = post.data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx);
-          const float cx = static_cast<float>(d3q19::cx[static_cast<std::size_t>(i)]);
-          const float cy = static_cast<float>(d3q19::cy[static_cast<std::size_t>(i)]);
-          const float cz = static_cast<float>(d3q19::cz[static_cast<std::size_t>(i)]);
-          // Shifted equilibrium (d3q19::equilibrium_shifted), vectorised over the row.
-          const auto e = d3q19::equilibrium_coefficients<float>(i, d);
-          for (int x = 0; x < nx; ++x) {
-            const float cu = cx * ux[x] + cy * uy[x] + cz * uz[x];
-            const float u2 = ux[x] * ux[x] + uy[x] * uy[x] + uz[x] * uz[x];
-            const float feq = e.w * drho[x] + rho[x] * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
-            o[x] = fi[x] - omega * (fi[x] - feq);
+        for (int x0 = 0; x0 < nx; x0 += chunk) {
+          const int count = std::min(chunk, nx - x0);
+          const float* src[d3q19::q];
+          for (int i = 0; i < d3q19::q; ++i) {
+            const int s = rs.shift[static_cast<std::size_t>(i)];
+            if (x0 - s >= 0 && x0 + count - s <= nx) {
+              src[i] = rs.row[static_cast<std::size_t>(i)] + (x0 - s);
+            } else {  // the chunk's source wraps around the periodic x boundary
+              float* e = edge + i * chunk;
+              for (int l = 0; l < count; ++l) e[l] = *rs.at(i, x0 + l);
+              src[i] = e;
+            }
           }
-          store_streaming(out + static_cast<std::size_t>(i) * n, o, static_cast<std::size_t>(nx));
+          collide_chunk(src, post, count, k);
+          for (int i = 0; i < d3q19::q; ++i)
+            store_streaming(out + static_cast<std::size_t>(i) * n + x0, post + i * chunk,
+                            static_cast<std::size_t>(count));
         }
       }
     stream_fence();
