@@ -26,9 +26,7 @@ void BgkSolver::initialise(double rho) {
 
 namespace {
 
-// Cells per chunk: one 64-byte line of each population row. A chunk's 19 populations, its
-// moments and its equilibria stay in vector registers; nothing goes through a row buffer.
-constexpr int chunk = 16;
+constexpr int chunk = chunk_cells;
 
 struct BgkConstants {
   float omega, d, sfx, sfy, sfz;  // 1/xi, rest fraction, xi * force (the eq. 10 velocity shift)
@@ -87,16 +85,9 @@ void BgkSolver::step() {
         for (int x0 = 0; x0 < nx; x0 += chunk) {
           const int count = std::min(chunk, nx - x0);
           const float* src[d3q19::q];
-          for (int i = 0; i < d3q19::q; ++i) {
-            const int s = rs.shift[static_cast<std::size_t>(i)];
-            if (x0 - s >= 0 && x0 + count - s <= nx) {
-              src[i] = rs.row[static_cast<std::size_t>(i)] + (x0 - s);
-            } else {  // the chunk's source wraps around the periodic x boundary
-              float* e = edge + i * chunk;
-              for (int l = 0; l < count; ++l) e[l] = *rs.at(i, x0 + l);
-              src[i] = e;
-            }
-          }
+          for (int i = 0; i < d3q19::q; ++i)
+            src[i] = periodic_span(rs.row[static_cast<std::size_t>(i)], nx, x0, -rs.shift[static_cast<std::size_t>(i)],
+                                   count, edge + i * chunk);
           collide_chunk(src, post, count, k);
           for (int i = 0; i < d3q19::q; ++i)
             store_streaming(out + static_cast<std::size_t>(i) * n + x0, post + i * chunk,

@@ -77,6 +77,28 @@ inline void gather_row(const RowSources& src, float* out, std::size_t stride) {
   }
 }
 
+/// Cells per chunk in the register-resident kernels: one 64-byte line of a population row.
+/// A chunk's populations, moments and equilibria stay in vector registers, written per cell in
+/// an `omp simd` loop over the chunk; nothing goes through row-sized buffers.
+inline constexpr int chunk_cells = 16;
+
+/// The `count` (<= chunk_cells) values row[x0 + offset + l], l < count, of a row periodic in x
+/// (nx values, |offset| <= 1): a pointer into the row, or, where the span wraps around the row's
+/// ends, into `edge` after copying them there.
+inline const float* periodic_span(const float* row, int nx, int x0, int offset, int count, float* edge) {
+  const int first = x0 + offset;
+  if (first >= 0 && first + count <= nx) return row + first;
+  if (first < 0) {  // first == -1: the row's last value, then its head
+    edge[0] = row[nx - 1];
+    std::memcpy(edge + 1, row, static_cast<std::size_t>(count - 1) * sizeof(float));
+  } else {  // the span runs past the row's end by one: its tail, then the row's first value
+    const int k = nx - first;
+    std::memcpy(edge, row + first, static_cast<std::size_t>(k) * sizeof(float));
+    std::memcpy(edge + k, row, static_cast<std::size_t>(count - k) * sizeof(float));
+  }
+  return edge;
+}
+
 /// Copies n floats to dst with non-temporal (streaming) stores where the CPU has them and dst
 /// is 64-byte aligned: the destination lines are written whole without first being read
 /// ("write-allocate"), which would otherwise add half again to the memory traffic of a

@@ -78,8 +78,9 @@ class WaterModel {
   /// Uniform vapour and temperature at rest, vapour perturbed by +-`perturbation` (hashed).
   void initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed);
   void step();
-  /// The two halves of step() for drivers that exchange halos themselves: stream (pass 1:
-  /// streaming, densities, Psi_1) then collide (pass 2: forces, collision, boundary layers).
+  /// The two halves of step() for drivers that exchange halos themselves: stream (pass 1: the
+  /// densities after streaming and Psi_1) then collide (pass 2: streaming, forces, collision,
+  /// boundary layers).
   enum class Stage { stream, collide };
   void step_stage(Stage stage);
   long steps_done() const { return step_; }
@@ -117,8 +118,22 @@ class WaterModel {
  private:
   std::vector<float> density(int component) const;
   struct RowScratch;
-  void stream_row(int y, int z, float* const tmp[2], std::size_t stride, std::size_t tbase);
-  void collide_row(int y, int z, const float* const tmp[2], std::size_t stride, std::size_t tbase, RowScratch& scratch);
+  /// Where pass 1 puts the densities and Psi_1 of a row and pass 2 finds them: the lattice-wide
+  /// arrays (y wrapped around the lattice), or a block's ring of three planes (y unwrapped,
+  /// relative to the block's first row, with one halo row on each side).
+  struct DensityRows {
+    float *rho1, *rho2, *psi1;
+    int nx, ny, y_offset, rows_per_plane, planes;  ///< planes: ring size (0: the lattice)
+    std::size_t row(int y, int z) const {
+      const int yl = planes == 0 ? (y + ny) % ny : y + y_offset;
+      const int zl = planes == 0 ? z : z % planes;
+      return (static_cast<std::size_t>(zl) * static_cast<std::size_t>(rows_per_plane) + static_cast<std::size_t>(yl)) *
+             static_cast<std::size_t>(nx);
+    }
+  };
+  DensityRows lattice_rows();
+  void density_row(int y, int z, const DensityRows& rows);
+  void collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows);
   void fused_step();   // both passes as a wavefront over z (whole lattice, walls in z)
   void finish_step();  // boundary layers and the step count
   int global_y(int y_local) const { return ((y_local - halo_ + y_begin_) % global_.ny + global_.ny) % global_.ny; }
@@ -128,11 +143,10 @@ class WaterModel {
   std::function<void(WaterModel&, Exchange)> exchange_;
   WaterModelParams p_;
   long step_ = 0;
-  // Post-collision populations and the streaming buffer; huge pages: 2 MiB-aligned rows for
-  // streaming stores, and fewer TLB misses over 38 concurrent streams.
-  std::vector<float, HugePageAllocator<float>> f_[2];
-  std::vector<float, HugePageAllocator<float>> tmp_[2];  // step_stage() only (slabs, periodic z)
-  std::vector<float> ring_[2];                           // fused_step(): the streamed populations of two planes
+  // Post-collision populations (f_) and the next step's (next_, pull streaming from one into
+  // the other); huge pages: 2 MiB-aligned rows for streaming stores, and fewer TLB misses over
+  // 38 concurrent streams.
+  std::vector<float, HugePageAllocator<float>> f_[2], next_[2];
   std::vector<float> rho_[2], psi1_;
 };
 
