@@ -21,25 +21,4 @@ Grid3 Grid3::parse(const std::string& text) {
   return g;
 }
 
-RowSources row_sources(const Grid3& g, const float* f, int y, int z, ZBoundary zb) {
-  RowSources r;
-  r.nx = g.nx;
-  const std::size_t cells = g.cells();
-  for (int i = 0; i < d3q19::q; ++i) {
-    const auto iu = static_cast<std::size_t>(i);
-    int sy = y - d3q19::cy[iu], sz = z - d3q19::cz[iu];
-    sy = (sy + g.ny) % g.ny;
-    if (zb == ZBoundary::periodic) {
-      sz = (sz + g.nz) % g.nz;
-    } else if (sz < 0 || sz >= g.nz) {  // halfway bounce-back at the wall
-      r.row[iu] = f + static_cast<std::size_t>(d3q19::opposite[iu]) * cells + g.index(0, y, z);
-      r.shift[iu] = 0;
-      continue;
-    }
-    r.row[iu] = f + iu * cells + g.index(0, sy, sz);
-    r.shift[iu] = d3q19::cx[iu];
-  }
-  return r;
-}
-
 }  // namespace nephos::lbm

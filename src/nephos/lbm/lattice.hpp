@@ -36,45 +36,45 @@ struct Grid3 {
 
 enum class ZBoundary { periodic, walls };
 
-/// Calls body(row_sources, y, z) for every row with, per direction i, the pointer to the
-/// source row of population i (already shifted so that element x is the source of cell x,
-/// except at x = 0 and x = nx-1 where the caller uses src_x()). Rows are distributed over
-/// OpenMP threads statically (deterministic).
-struct RowSources {
-  std::array<const float*, d3q19::q> row{};  ///< source row start for direction i
-  std::array<int, d3q19::q> shift{};         ///< source x = x - shift[i] (0 for bounce-back)
+/// The pull-streaming sources of one row: per direction i, the source row of population i
+/// (element x is the source of cell x, except where the row wraps around x; see at() and
+/// periodic_span()). T is the storage type of the populations (float or FP16 bits).
+template <class T>
+struct RowSourcesOf {
+  std::array<const T*, d3q19::q> row{};  ///< source row start for direction i
+  std::array<int, d3q19::q> shift{};     ///< source x = x - shift[i] (0 for bounce-back)
   int nx = 0;
-  const float* at(int i, int x) const {
+  const T* at(int i, int x) const {
     int sx = x - shift[static_cast<std::size_t>(i)];
     sx = sx < 0 ? sx + nx : (sx >= nx ? sx - nx : sx);
     return row[static_cast<std::size_t>(i)] + sx;
   }
 };
+using RowSources = RowSourcesOf<float>;
 
-/// The pull-streaming sources of row (y, z) for populations stored in `f`.
-RowSources row_sources(const Grid3& g, const float* f, int y, int z, ZBoundary zb);
-
-/// Gathers the streamed populations of a row into a contiguous buffer: out[i * nx + x] is the
-/// population i arriving at cell x (periodic in x). One memcpy-like pass per direction, so the
-/// collision loops that follow run over x with unit stride and vectorise.
-/// `stride` is the distance between directions in `out` (nx for a row buffer, the cell count
-/// for the global array).
-inline void gather_row(const RowSources& src, float* out, std::size_t stride) {
-  const int nx = src.nx;
+/// The pull-streaming sources of row (y, z) for populations stored in `f` (direction-major,
+/// f[i * cells + cell]).
+template <class T>
+RowSourcesOf<T> row_sources(const Grid3& g, const T* f, int y, int z, ZBoundary zb) {
+  RowSourcesOf<T> r;
+  r.nx = g.nx;
+  const std::size_t cells = g.cells();
   for (int i = 0; i < d3q19::q; ++i) {
-    const float* r = src.row[static_cast<std::size_t>(i)];
-    float* o = out + static_cast<std::size_t>(i) * stride;
-    const int s = src.shift[static_cast<std::size_t>(i)];
-    if (s == 0) {
-      for (int x = 0; x < nx; ++x) o[x] = r[x];
-    } else if (s == 1) {
-      o[0] = r[nx - 1];
-      for (int x = 1; x < nx; ++x) o[x] = r[x - 1];
-    } else {
-      for (int x = 0; x < nx - 1; ++x) o[x] = r[x + 1];
-      o[nx - 1] = r[0];
+    const auto iu = static_cast<std::size_t>(i);
+    // y in [0, ny), |c| <= 1: one conditional wrap (no integer division on this per-row path).
+    int sy = y - d3q19::cy[iu], sz = z - d3q19::cz[iu];
+    sy = sy < 0 ? sy + g.ny : (sy >= g.ny ? sy - g.ny : sy);
+    if (zb == ZBoundary::periodic) {
+      sz = sz < 0 ? sz + g.nz : (sz >= g.nz ? sz - g.nz : sz);
+    } else if (sz < 0 || sz >= g.nz) {  // halfway bounce-back at the wall
+      r.row[iu] = f + static_cast<std::size_t>(d3q19::opposite[iu]) * cells + g.index(0, y, z);
+      r.shift[iu] = 0;
+      continue;
     }
+    r.row[iu] = f + iu * cells + g.index(0, sy, sz);
+    r.shift[iu] = d3q19::cx[iu];
   }
+  return r;
 }
 
 /// Cells per chunk in the register-resident kernels: one 64-byte line of a population row.

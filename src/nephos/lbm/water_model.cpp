@@ -35,6 +35,7 @@ WaterModelParams WaterModelParams::from(const ParamDict& dict) {
   p.silo_height_min = m.get("silo_height_min", p.silo_height_min);
   p.silo_height_max = m.get("silo_height_max", p.silo_height_max);
   p.vapour_background = m.get("vapour_background", p.vapour_background);
+  p.storage = parse_storage(m.get("storage", std::string(to_string(p.storage))));
   if (!(p.xi_vapour > 0.5) || !(p.xi_temperature > 0.5))
     throw ConfigError("relaxation times must exceed 1/2", {.file = dict.source(), .key = "water.xi_*"});
   if (p.rest_fraction < 0 || p.rest_fraction > 1)
@@ -70,8 +71,8 @@ WaterModel::WaterModel(Grid3 global, WaterModelParams params, int y_begin, int y
 WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(grid), p_(params) {
   const std::size_t n = g_.cells();
   for (int c = 0; c < 2; ++c) {
-    f_[c].assign(d3q19::q * n, 0.0f);
-    next_[c].assign(d3q19::q * n, 0.0f);
+    f_[c] = Populations(p_.storage, d3q19::q * n);
+    next_[c] = Populations(p_.storage, d3q19::q * n);
     rho_[c].assign(n, 0.0f);
   }
   psi1_.assign(n, 0.0f);
@@ -110,10 +111,10 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
         float feq[d3q19::q];
         d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0,
                                           0, 0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
+        for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
         d3q19::equilibrium_shifted<float>(static_cast<float>(temp - reference(p_, 1)), static_cast<float>(temp), 0, 0,
                                           0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
+        for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
       }
   step_ = 0;
 }
@@ -125,10 +126,10 @@ void WaterModel::initialise_uniform(double vapour, double temperature, double pe
     const double v = vapour + perturbation * (2 * uniform01(seed, 0x9e7, cell) - 1);
     float feq[d3q19::q];
     d3q19::equilibrium_shifted<float>(static_cast<float>(v - reference(p_, 0)), static_cast<float>(v), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
+    for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
     d3q19::equilibrium_shifted<float>(static_cast<float>(temperature - reference(p_, 1)),
                                       static_cast<float>(temperature), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
+    for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
   }
   step_ = 0;
 }
@@ -152,6 +153,58 @@ WaterModel::DensityRows WaterModel::lattice_rows() {
   return {rho_[0].data(), rho_[1].data(), psi1_.data(), g_.nx, g_.ny, 0, g_.ny, 0};
 }
 
+namespace {
+// Cells per line: what the kernels read and write at a time per direction, a whole 64-byte
+// line of FP16 storage (two of FP32), so streaming stores never write part of a line.
+constexpr int line = 2 * chunk;
+
+template <class T>
+const T* storage(const Populations& p);
+template <>
+const float* storage<float>(const Populations& p) {
+  return p.f32();
+}
+template <>
+const std::uint16_t* storage<std::uint16_t>(const Populations& p) {
+  return p.f16();
+}
+template <class T>
+T* storage(Populations& p) {
+  return const_cast<T*>(storage<T>(static_cast<const Populations&>(p)));
+}
+
+// The `count` (<= line) pulled populations of direction i at cells x0 ... of a row as floats:
+// a pointer into FP32 storage (or into `buf`, where the row wraps around x), or the FP16
+// values converted into `buf`.
+inline const float* pulled(const RowSourcesOf<float>& rs, int i, int x0, int count, float* buf) {
+  const auto iu = static_cast<std::size_t>(i);
+  return periodic_span(rs.row[iu], rs.nx, x0, -rs.shift[iu], count, buf);
+}
+inline const float* pulled(const RowSourcesOf<std::uint16_t>& rs, int i, int x0, int count, float* buf) {
+  const auto iu = static_cast<std::size_t>(i);
+  const std::uint16_t* row = rs.row[iu];
+  const int nx = rs.nx, first = x0 - rs.shift[iu];
+  constexpr float s = 1.0f / fp16_scale;
+  if (first >= 0 && first + count <= nx) {
+    halves_to_floats(row + first, buf, count, s);
+  } else if (first < 0) {  // first == -1: the row's last value, then its head
+    halves_to_floats(row + nx - 1, buf, 1, s);
+    halves_to_floats(row, buf + 1, count - 1, s);
+  } else {  // one past the row's end: its tail, then its first value
+    const int k = nx - first;
+    halves_to_floats(row + first, buf, k, s);
+    halves_to_floats(row, buf + k, count - k, s);
+  }
+  return buf;
+}
+
+inline void store_line(float* dst, const float* src, int n) { store_streaming(dst, src, static_cast<std::size_t>(n)); }
+inline void store_line(std::uint16_t* dst, const float* src, int n) {
+  floats_to_halves_streaming(dst, src, n, fp16_scale);
+}
+}  // namespace
+
+template <class T>
 void WaterModel::density_row(int y, int z, const DensityRows& rows) {
   // Pass 1 of row (y, z): the densities after streaming, rho_c = rho_ref + sum_i f_i(x - c_i),
   // and Psi_1. Reads the pulled populations without copying them: pass 2 pulls them again,
@@ -160,16 +213,15 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
   const float rho10 = static_cast<float>(p_.rho10);
   const std::size_t base = rows.row(y, z);
-  alignas(64) float edge[d3q19::q * chunk];  // pulled populations of chunks that wrap around x
+  const int wy = y < 0 ? y + g_.ny : (y >= g_.ny ? y - g_.ny : y);  // y in [-1, ny]
+  alignas(64) float buf[d3q19::q * line];  // pulled populations where they are not FP32 in place
   for (int c = 0; c < 2; ++c) {
-    const RowSources rs = row_sources(g_, f_[c].data(), (y + g_.ny) % g_.ny, z, zb);
+    const RowSourcesOf<T> rs = row_sources(g_, storage<T>(f_[c]), wy, z, zb);
     const float ref = static_cast<float>(reference(p_, c));
-    for (int x0 = 0; x0 < nx; x0 += chunk) {
-      const int count = std::min(chunk, nx - x0);
+    for (int x0 = 0; x0 < nx; x0 += line) {
+      const int count = std::min(line, nx - x0);
       const float* src[d3q19::q];
-      for (int i = 0; i < d3q19::q; ++i)
-        src[i] = periodic_span(rs.row[static_cast<std::size_t>(i)], nx, x0, -rs.shift[static_cast<std::size_t>(i)],
-                               count, edge + i * chunk);
+      for (int i = 0; i < d3q19::q; ++i) src[i] = pulled(rs, i, x0, count, buf + i * line);
       float* rho = (c == 0 ? rows.rho1 : rows.rho2) + base + x0;
 #pragma omp simd
       for (int l = 0; l < count; ++l) {
@@ -186,9 +238,9 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
 }
 
 struct WaterModel::RowScratch {
-  alignas(64) float edge[2][d3q19::q * chunk];      // neighbours' Psi_1 and rho_2 of chunks that wrap around x
-  alignas(64) float edge_pop[2][d3q19::q * chunk];  // pulled populations of chunks that wrap around x
-  alignas(64) float post[2][d3q19::q * chunk];      // post-collision populations of a chunk
+  alignas(64) float edge[2][d3q19::q * line];  // neighbours' Psi_1 and rho_2 of lines that wrap around x
+  alignas(64) float pop[2][d3q19::q * line];   // pulled populations where they are not FP32 in place
+  alignas(64) float post[2][d3q19::q * line];  // post-collision populations of a line
 };
 
 namespace {
@@ -207,7 +259,7 @@ struct WaterConstants {
 // shifted velocity (eq. 10) and the LBGK collision of `count` cells, written per cell and
 // vectorised across the chunk. All in FP32: the populations are shifted by their rest values,
 // so FP32 rounds the deviations, not the densities.
-inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float (*post)[d3q19::q * chunk]) {
+inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2]) {
   using namespace d3q19;
 #pragma omp simd
   for (int l = 0; l < count; ++l) {
@@ -276,7 +328,7 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
         const float feq = e.w * drho[c] + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
         feq_sum += feq;
         const float f = in.pop[c][i][l];
-        post[c][i * chunk + l] = f - omega * (f - feq);
+        post[c][i * line + l] = f - omega * (f - feq);
       }
       const float f0 = in.pop[c][0][l];
       post[c][l] = f0 - omega * (f0 - (drho[c] - feq_sum));
@@ -285,6 +337,7 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
 }
 }  // namespace
 
+template <class T>
 void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows) {
   // Pass 2 of row (y, z), one chunk of cells at a time (collide_chunk): pull the populations
   // of the current state again, collide, and write the next state with streaming stores.
@@ -300,47 +353,72 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
                          static_cast<float>(p_.buoyancy_reference)};
   const std::size_t base = g_.index(0, y, z), dbase = rows.row(y, z);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-  const RowSources rs[2] = {row_sources(g_, f_[0].data(), y, z, zb), row_sources(g_, f_[1].data(), y, z, zb)};
+  const RowSourcesOf<T> rs[2] = {row_sources(g_, storage<T>(f_[0]), y, z, zb),
+                                 row_sources(g_, storage<T>(f_[1]), y, z, zb)};
   // Neighbour rows of the gradients (walls: the row beyond is the row itself).
   const float* psi_row[d3q19::q];
   const float* rho2_row[d3q19::q];
   for (int i = 1; i < d3q19::q; ++i) {
     const auto iu = static_cast<std::size_t>(i);
     int sz = z + d3q19::cz[iu];
-    sz = p_.periodic_z ? (sz + g_.nz) % g_.nz : std::clamp(sz, 0, g_.nz - 1);
+    sz = p_.periodic_z ? (sz < 0 ? sz + g_.nz : (sz >= g_.nz ? sz - g_.nz : sz)) : std::clamp(sz, 0, g_.nz - 1);
     const std::size_t r = rows.row(y + d3q19::cy[iu], sz);
     psi_row[i] = rows.psi1 + r;
     rho2_row[i] = rows.rho2 + r;
   }
-  WaterChunk in{};
-  for (int x0 = 0; x0 < nx; x0 += chunk) {
-    const int count = std::min(chunk, nx - x0);
+  const float* pop[2][d3q19::q];
+  const float* psi_nb[d3q19::q];
+  const float* rho2_nb[d3q19::q];
+  for (int x0 = 0; x0 < nx; x0 += line) {
+    const int count = std::min(line, nx - x0);
     for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i) {
-        const auto iu = static_cast<std::size_t>(i);
-        in.pop[c][i] = periodic_span(rs[c].row[iu], nx, x0, -rs[c].shift[iu], count, scratch.edge_pop[c] + i * chunk);
-      }
+      for (int i = 0; i < d3q19::q; ++i) pop[c][i] = pulled(rs[c], i, x0, count, scratch.pop[c] + i * line);
     for (int i = 1; i < d3q19::q; ++i) {
       const int cx = d3q19::cx[static_cast<std::size_t>(i)];
-      in.psi_nb[i] = periodic_span(psi_row[i], nx, x0, cx, count, scratch.edge[0] + i * chunk);
-      in.rho2_nb[i] = periodic_span(rho2_row[i], nx, x0, cx, count, scratch.edge[1] + i * chunk);
+      psi_nb[i] = periodic_span(psi_row[i], nx, x0, cx, count, scratch.edge[0] + i * line);
+      rho2_nb[i] = periodic_span(rho2_row[i], nx, x0, cx, count, scratch.edge[1] + i * line);
     }
-    in.rho1 = rows.rho1 + dbase + x0;
-    in.rho2 = rows.rho2 + dbase + x0;
-    in.psi1 = rows.psi1 + dbase + x0;
-    collide_chunk(in, count, k, scratch.post);
+    for (int l0 = 0; l0 < count; l0 += chunk) {  // the line's chunks, each in vector registers
+      WaterChunk in{};
+      for (int c = 0; c < 2; ++c)
+        for (int i = 0; i < d3q19::q; ++i) in.pop[c][i] = pop[c][i] + l0;
+      for (int i = 1; i < d3q19::q; ++i) {
+        in.psi_nb[i] = psi_nb[i] + l0;
+        in.rho2_nb[i] = rho2_nb[i] + l0;
+      }
+      in.rho1 = rows.rho1 + dbase + x0 + l0;
+      in.rho2 = rows.rho2 + dbase + x0 + l0;
+      in.psi1 = rows.psi1 + dbase + x0 + l0;
+      float* const post[2] = {scratch.post[0] + l0, scratch.post[1] + l0};
+      collide_chunk(in, std::min(chunk, count - l0), k, post);
+    }
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i)
-        store_streaming(next_[c].data() + static_cast<std::size_t>(i) * n + base + x0, scratch.post[c] + i * chunk,
-                        static_cast<std::size_t>(count));
+        store_line(storage<T>(next_[c]) + static_cast<std::size_t>(i) * n + base + x0, scratch.post[c] + i * line,
+                   count);
   }
 }
 
 void WaterModel::step_stage(Stage stage) {
+  if (p_.storage == Storage::fp16)
+    step_stage_impl<std::uint16_t>(stage);
+  else
+    step_stage_impl<float>(stage);
+}
+
+void WaterModel::fused_step() {
+  if (p_.storage == Storage::fp16)
+    fused_step_impl<std::uint16_t>();
+  else
+    fused_step_impl<float>();
+}
+
+template <class T>
+void WaterModel::step_stage_impl(Stage stage) {
   if (stage == Stage::stream) {
 #pragma omp parallel for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
-      for (int y = 0; y < g_.ny; ++y) density_row(y, z, lattice_rows());
+      for (int y = 0; y < g_.ny; ++y) density_row<T>(y, z, lattice_rows());
     return;
   }
   const int y0 = owned_begin(), y1 = owned_end();
@@ -349,14 +427,15 @@ void WaterModel::step_stage(Stage stage) {
     RowScratch scratch;
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
-      for (int y = y0; y < y1; ++y) collide_row(y, z, scratch, lattice_rows());
+      for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows());
     stream_fence();
   }
   for (int c = 0; c < 2; ++c) f_[c].swap(next_[c]);
   finish_step();
 }
 
-void WaterModel::fused_step() {
+template <class T>
+void WaterModel::fused_step_impl() {
   // The two passes as a wavefront over z, in blocks of rows along y that the threads share
   // out without waiting for each other: per block and plane z, pass 1 (densities) of plane
   // z + 1 for the block's rows and one halo row on each side, then pass 2 (collision) of plane
@@ -381,12 +460,12 @@ void WaterModel::fused_step() {
       const int yb = b * block, ye = std::min(ny, yb + block);
       const DensityRows rows{dens.data(), dens.data() + ring, dens.data() + 2 * ring, nx, ny, 1 - yb, block + 2, 3};
       auto pass1 = [&](int z) {
-        for (int y = yb - 1; y <= ye; ++y) density_row(y, z, rows);
+        for (int y = yb - 1; y <= ye; ++y) density_row<T>(y, z, rows);
       };
       pass1(0);
       for (int z = 0; z < nz; ++z) {
         if (z + 1 < nz) pass1(z + 1);
-        for (int y = yb; y < ye; ++y) collide_row(y, z, scratch, rows);
+        for (int y = yb; y < ye; ++y) collide_row<T>(y, z, scratch, rows);
         if (z == 0 || z == nz - 1)  // finish_step() resets the boundary layers from the vapour density
           for (int y = yb; y < ye; ++y) std::copy_n(rows.rho1 + rows.row(y, z), nx, rho_[0].data() + g_.index(0, y, z));
       }
@@ -412,9 +491,9 @@ void WaterModel::finish_step() {
           float feq[d3q19::q];
           d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0,
                                             0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[0][static_cast<std::size_t>(i) * n + cell] = feq[i];
+          for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
           d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[1][static_cast<std::size_t>(i) * n + cell] = feq[i];
+          for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
         }
     }
   }
@@ -433,7 +512,7 @@ std::vector<float> WaterModel::density(int c) const {
       for (int x = 0; x < g_.nx; ++x) {
         const std::size_t cell = g_.index(x, y + owned_begin(), z);
         float s = ref;
-        for (int i = 0; i < d3q19::q; ++i) s += f_[c][static_cast<std::size_t>(i) * n + cell];
+        for (int i = 0; i < d3q19::q; ++i) s += f_[c].get(static_cast<std::size_t>(i) * n + cell);
         out[(static_cast<std::size_t>(z) * own + static_cast<std::size_t>(y)) * g_.nx + x] = s;
       }
   return out;
@@ -452,8 +531,10 @@ std::vector<float> WaterModel::pack_row(Exchange kind, int y) const {
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i)
         for (int z = 0; z < g_.nz; ++z) {
-          const float* r = f_[c].data() + static_cast<std::size_t>(i) * n + g_.index(0, y, z);
-          out.insert(out.end(), r, r + g_.nx);
+          const std::size_t at = out.size();
+          out.resize(at + static_cast<std::size_t>(g_.nx));
+          f_[c].read(static_cast<std::size_t>(i) * n + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
+                     out.data() + at);
         }
   } else {
     for (const std::vector<float>* f : {&rho_[0], &rho_[1], &psi1_})
@@ -472,7 +553,8 @@ void WaterModel::unpack_row(Exchange kind, int y, const std::vector<float>& data
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i)
         for (int z = 0; z < g_.nz; ++z, k += static_cast<std::size_t>(g_.nx))
-          std::copy_n(data.data() + k, g_.nx, f_[c].data() + static_cast<std::size_t>(i) * n + g_.index(0, y, z));
+          f_[c].write(static_cast<std::size_t>(i) * n + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
+                      data.data() + k);
   } else {
     for (std::vector<float>* f : {&rho_[0], &rho_[1], &psi1_})
       for (int z = 0; z < g_.nz; ++z, k += static_cast<std::size_t>(g_.nx))
@@ -498,10 +580,13 @@ bool WaterModel::check(std::string& what, std::size_t& cell) const {
 }
 
 namespace {
-// CK2: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
-// equal states could give different files).
-constexpr char magic[16] = "NEPHOS-LBM-CK2";
-constexpr int param_count = 18;
+// CK3: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
+// equal states could give different files); CK3 adds the population storage (CK2 is read as
+// FP32 storage). Populations are written as FP32 whatever the storage: FP16 values convert
+// exactly, so a resumed run continues bit-identically either way.
+constexpr char magic[16] = "NEPHOS-LBM-CK3";
+constexpr char magic_ck2[16] = "NEPHOS-LBM-CK2";
+constexpr int param_count = 19;
 
 std::array<double, param_count> params_to_array(const WaterModelParams& p) {
   return {p.rho10,
@@ -521,7 +606,8 @@ std::array<double, param_count> params_to_array(const WaterModelParams& p) {
           p.silo_height_min,
           p.silo_height_max,
           p.vapour_background,
-          p.periodic_z ? 1.0 : 0.0};
+          p.periodic_z ? 1.0 : 0.0,
+          p.storage == Storage::fp16 ? 1.0 : 0.0};
 }
 
 WaterModelParams params_from_array(const std::array<double, param_count>& a) {
@@ -530,7 +616,7 @@ WaterModelParams params_from_array(const std::array<double, param_count>& a) {
   p.g12 = a[5], p.g22 = a[6], p.buoyancy = a[7], p.buoyancy_reference = a[8];
   p.temperature_bottom = a[9], p.temperature_top = a[10], p.silos = static_cast<int>(a[11]);
   p.silo_radius_min = a[12], p.silo_radius_max = a[13], p.silo_height_min = a[14], p.silo_height_max = a[15];
-  p.vapour_background = a[16], p.periodic_z = a[17] != 0;
+  p.vapour_background = a[16], p.periodic_z = a[17] != 0, p.storage = a[18] != 0 ? Storage::fp16 : Storage::fp32;
   return p;
 }
 
@@ -542,7 +628,9 @@ struct CheckpointHeader {
   WaterModelParams params;
 };
 
-void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h, const float* f0, const float* f1) {
+// direction(c, i, out) fills out[cell] with population i of component c, for every cell.
+void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h,
+                      const std::function<void(int, int, float*)>& direction) {
   AtomicFile out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
@@ -552,9 +640,13 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
     os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
     const auto params = params_to_array(h.params);
     os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
-    const auto bytes = static_cast<std::streamsize>(d3q19::q * h.grid.cells() * sizeof(float));
-    os.write(reinterpret_cast<const char*>(f0), bytes);
-    os.write(reinterpret_cast<const char*>(f1), bytes);
+    std::vector<float> values(h.grid.cells());
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i) {
+        direction(c, i, values.data());
+        os.write(reinterpret_cast<const char*>(values.data()),
+                 static_cast<std::streamsize>(values.size() * sizeof(float)));
+      }
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = path.string()});
   }
   out.commit();
@@ -567,12 +659,14 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
   is.read(m, sizeof m);
   if (std::memcmp(m, "NEPHOS-LBM-CK1", 15) == 0)
     throw FormatError("checkpoint from an older nephos (format CK1): rerun the simulation", {.file = path.string()});
-  if (std::memcmp(m, magic, sizeof magic) != 0)
+  const bool ck2 = std::memcmp(m, magic_ck2, sizeof magic_ck2) == 0;
+  if (!ck2 && std::memcmp(m, magic, sizeof magic) != 0)
     throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
   std::int64_t hdr[4];
   is.read(reinterpret_cast<char*>(hdr), sizeof hdr);
-  std::array<double, param_count> params{};
-  is.read(reinterpret_cast<char*>(params.data()), sizeof params);
+  std::array<double, param_count> params{};  // CK2 has no storage field: FP32
+  is.read(reinterpret_cast<char*>(params.data()),
+          static_cast<std::streamsize>((ck2 ? param_count - 1 : param_count) * sizeof(double)));
   const WaterModelParams p = params_from_array(params);
   if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
     throw FormatError("corrupt checkpoint header", {.file = path.string()});
@@ -584,7 +678,9 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
 void WaterModel::save(const std::filesystem::path& path) const {
   if (halo_ != 0)
     throw ValueError("a slab cannot save itself: gather pack_owned() of every slab and call save_gathered()");
-  write_checkpoint(path, {g_, step_, p_}, f_[0].data(), f_[1].data());
+  const std::size_t n = g_.cells();
+  write_checkpoint(path, {g_, step_, p_},
+                   [&](int c, int i, float* out) { f_[c].read(static_cast<std::size_t>(i) * n, n, out); });
 }
 
 WaterModel WaterModel::load(const std::filesystem::path& path) {
@@ -592,9 +688,14 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
   const CheckpointHeader h = read_checkpoint_header(is, path);
   WaterModel w(h.grid, h.params);
   w.step_ = h.step;
+  const std::size_t n = h.grid.cells();
+  std::vector<float> values(n);
   for (int c = 0; c < 2; ++c)
-    is.read(reinterpret_cast<char*>(w.f_[c].data()), static_cast<std::streamsize>(w.f_[c].size() * sizeof(float)));
-  if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+    for (int i = 0; i < d3q19::q; ++i) {
+      is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(n * sizeof(float)));
+      if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+      w.f_[c].write(static_cast<std::size_t>(i) * n, n, values.data());
+    }
   return w;
 }
 
@@ -618,8 +719,8 @@ WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin,
       if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
       for (int z = 0; z < h.grid.nz; ++z)
         for (int y = w.owned_begin(); y < w.owned_end(); ++y)
-          std::copy_n(plane.data() + h.grid.index(0, w.global_y(y), z), h.grid.nx,
-                      w.f_[c].data() + static_cast<std::size_t>(i) * n + w.g_.index(0, y, z));
+          w.f_[c].write(static_cast<std::size_t>(i) * n + w.g_.index(0, y, z), static_cast<std::size_t>(h.grid.nx),
+                        plane.data() + h.grid.index(0, w.global_y(y), z));
     }
   return w;
 }
@@ -636,18 +737,19 @@ std::vector<float> WaterModel::pack_owned() const {
 void WaterModel::save_gathered(const std::filesystem::path& path, const Grid3& global, const WaterModelParams& params,
                                long step, const std::vector<float>& rows) {
   // rows: pack_row(populations) of every global row in y order: per row, c, i, z, then x.
-  const std::size_t N = global.cells(), row = 2 * d3q19::q * static_cast<std::size_t>(global.nz) * global.nx;
+  const std::size_t row = 2 * d3q19::q * static_cast<std::size_t>(global.nz) * global.nx;
   if (rows.size() != row * static_cast<std::size_t>(global.ny))
     throw ValueError(fmt::format("gathered checkpoint has {} values, expected {}", rows.size(), row * global.ny));
-  std::vector<float> f[2] = {std::vector<float>(d3q19::q * N), std::vector<float>(d3q19::q * N)};
-  for (int y = 0; y < global.ny; ++y) {
-    const float* r = rows.data() + static_cast<std::size_t>(y) * row;
-    for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i)
-        for (int z = 0; z < global.nz; ++z, r += global.nx)
-          std::copy_n(r, global.nx, f[c].data() + static_cast<std::size_t>(i) * N + global.index(0, y, z));
-  }
-  write_checkpoint(path, {global, step, params}, f[0].data(), f[1].data());
+  // Population i of component c, cell (x, y, z), sits in row y's block at ((c * q + i) * nz + z) * nx + x.
+  write_checkpoint(path, {global, step, params}, [&](int c, int i, float* out) {
+    for (int y = 0; y < global.ny; ++y)
+      for (int z = 0; z < global.nz; ++z)
+        std::copy_n(rows.data() + static_cast<std::size_t>(y) * row +
+                        ((static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * global.nz +
+                         static_cast<std::size_t>(z)) *
+                            global.nx,
+                    global.nx, out + global.index(0, y, z));
+  });
 }
 
 }  // namespace nephos::lbm

@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "nephos/core/config.hpp"
-#include "nephos/core/huge_page_allocator.hpp"
 #include "nephos/lbm/lattice.hpp"
+#include "nephos/lbm/populations.hpp"
 
 namespace nephos::lbm {
 
@@ -40,6 +40,9 @@ struct WaterModelParams {
   double silo_height_min = 0.2, silo_height_max = 0.4;    ///< cylinder height, fraction of nz
   double vapour_background = 0.5;                         ///< vapour density far from silos, fraction of rho10
   bool periodic_z = false;                                ///< tests: a fully periodic box (no top/bottom layers)
+  /// Population storage: FP32, or FP16 (half the memory traffic; arithmetic stays FP32; see
+  /// populations.hpp and docs/lbm.md for the error).
+  Storage storage = Storage::fp32;
 
   static WaterModelParams from(const ParamDict& dict);
 };
@@ -124,16 +127,22 @@ class WaterModel {
   struct DensityRows {
     float *rho1, *rho2, *psi1;
     int nx, ny, y_offset, rows_per_plane, planes;  ///< planes: ring size (0: the lattice)
-    std::size_t row(int y, int z) const {
-      const int yl = planes == 0 ? (y + ny) % ny : y + y_offset;
-      const int zl = planes == 0 ? z : z % planes;
+    std::size_t row(int y, int z) const {          // y in [-1, ny], z >= 0
+      const int yl = planes == 0 ? (y < 0 ? y + ny : (y >= ny ? y - ny : y)) : y + y_offset;
+      const int zl = planes == 0 ? z : z % 3;  // the ring has three planes
       return (static_cast<std::size_t>(zl) * static_cast<std::size_t>(rows_per_plane) + static_cast<std::size_t>(yl)) *
              static_cast<std::size_t>(nx);
     }
   };
   DensityRows lattice_rows();
+  template <class T>  // T: the population storage type, float or FP16 bits (std::uint16_t)
   void density_row(int y, int z, const DensityRows& rows);
+  template <class T>
   void collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows);
+  template <class T>
+  void step_stage_impl(Stage stage);
+  template <class T>
+  void fused_step_impl();
   void fused_step();   // both passes as a wavefront over z (whole lattice, walls in z)
   void finish_step();  // boundary layers and the step count
   int global_y(int y_local) const { return ((y_local - halo_ + y_begin_) % global_.ny + global_.ny) % global_.ny; }
@@ -146,7 +155,7 @@ class WaterModel {
   // Post-collision populations (f_) and the next step's (next_, pull streaming from one into
   // the other); huge pages: 2 MiB-aligned rows for streaming stores, and fewer TLB misses over
   // 38 concurrent streams.
-  std::vector<float, HugePageAllocator<float>> f_[2], next_[2];
+  Populations f_[2], next_[2];
   std::vector<float> rho_[2], psi1_;
 };
 

@@ -1,0 +1,88 @@
+#pragma once
+// The populations of one lattice-Boltzmann component (q directions x cells, direction-major:
+// population i of cell n at [i * cells + n]) in FP32 or, optionally, FP16 storage.
+//
+// FP16 storage keeps the arithmetic in FP32 and only stores halves: 2 instead of 4 bytes per
+// population, so a streaming step moves half the bytes. The stored values are the populations
+// shifted by their rest values (d3q19::equilibrium_shifted), times fp16_scale = 2^10: shifted
+// populations are small (|f_i - w_i rho_ref| ~ 1e-4 .. 1e-1) and the scale keeps them out of
+// FP16's subnormal range (below 6.1e-5) while leaving room up to |f_i - w_i rho_ref| < 64. A
+// power of two, so scaling itself never rounds. See docs/lbm.md for the error this costs.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "nephos/core/error.hpp"
+#include "nephos/core/huge_page_allocator.hpp"
+#include "nephos/lbm/half.hpp"
+
+namespace nephos::lbm {
+
+enum class Storage { fp32, fp16 };
+
+inline Storage parse_storage(const std::string& text) {
+  if (text == "fp32") return Storage::fp32;
+  if (text == "fp16") return Storage::fp16;
+  throw ValueError("population storage must be 'fp32' or 'fp16', got '" + text + "'", {.key = "storage"});
+}
+inline const char* to_string(Storage s) { return s == Storage::fp32 ? "fp32" : "fp16"; }
+
+inline constexpr float fp16_scale = 1024.0f;  ///< stored half = (f_i - w_i rho_ref) * fp16_scale
+
+class Populations {
+ public:
+  Populations() = default;
+  Populations(Storage storage, std::size_t size) : storage_(storage) {
+    if (storage == Storage::fp32)
+      f32_.assign(size, 0.0f);
+    else
+      f16_.assign(size, 0);
+  }
+  Storage storage() const { return storage_; }
+  std::size_t size() const { return storage_ == Storage::fp32 ? f32_.size() : f16_.size(); }
+  /// Bytes per stored population.
+  std::size_t bytes_per_value() const { return storage_ == Storage::fp32 ? 4 : 2; }
+
+  float get(std::size_t k) const {
+    return storage_ == Storage::fp32 ? f32_[k] : half_to_float(f16_[k]) * (1.0f / fp16_scale);
+  }
+  void set(std::size_t k, float v) {
+    if (storage_ == Storage::fp32)
+      f32_[k] = v;
+    else
+      f16_[k] = float_to_half(v * fp16_scale);
+  }
+  /// out[j] = get(k + j) for j < n.
+  void read(std::size_t k, std::size_t n, float* out) const {
+    if (storage_ == Storage::fp32)
+      for (std::size_t j = 0; j < n; ++j) out[j] = f32_[k + j];
+    else
+      halves_to_floats(f16_.data() + k, out, static_cast<int>(n), 1.0f / fp16_scale);
+  }
+  /// set(k + j, in[j]) for j < n.
+  void write(std::size_t k, std::size_t n, const float* in) {
+    for (std::size_t j = 0; j < n; ++j) set(k + j, in[j]);
+  }
+
+  float* f32() { return f32_.data(); }
+  const float* f32() const { return f32_.data(); }
+  std::uint16_t* f16() { return f16_.data(); }
+  const std::uint16_t* f16() const { return f16_.data(); }
+
+  void swap(Populations& other) noexcept {
+    std::swap(storage_, other.storage_);
+    f32_.swap(other.f32_);
+    f16_.swap(other.f16_);
+  }
+
+ private:
+  Storage storage_ = Storage::fp32;
+  // Huge pages: 2 MiB-aligned rows for streaming stores, and fewer TLB misses over the
+  // kernels' 38 concurrent streams.
+  std::vector<float, HugePageAllocator<float>> f32_;
+  std::vector<std::uint16_t, HugePageAllocator<std::uint16_t>> f16_;
+};
+
+}  // namespace nephos::lbm
