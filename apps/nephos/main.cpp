@@ -248,6 +248,7 @@ struct LbmOptions {
   std::string size = "640x480";
   std::string resume;
   std::string config;
+  std::string storage;  // empty: the parameter file's (default fp32)
   std::string out = "out/lbm";
 };
 
@@ -267,6 +268,9 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     dict.check_unused();
   }
   if (o.silos >= 0) params.silos = o.silos;
+  if (!o.storage.empty()) params.storage = lbm::parse_storage(o.storage);
+  if (!o.resume.empty() && !o.storage.empty())
+    throw ValueError("a resumed run keeps the storage of its checkpoint", {.key = "--storage"});
   const fs::path out(o.out);
   std::vector<float> vapour, temperature;
   lbm::Grid3 grid;
@@ -694,6 +698,8 @@ int main(int argc, char** argv) {
   lbmc->add_option("--size", lo.size, "Rendered image WIDTHxHEIGHT")->capture_default_str();
   lbmc->add_option("--resume", lo.resume, "Continue from a checkpoint file");
   lbmc->add_option("--config", lo.config, "TOML with a [water] table");
+  lbmc->add_option("--storage", lo.storage,
+                   "Population storage of the water model: fp32 (default) or fp16 (half the memory; see docs/lbm.md)");
   lbmc->add_option("--out", lo.out, "Output directory")->capture_default_str();
 
   FlyOptions fo;

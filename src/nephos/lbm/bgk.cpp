@@ -45,9 +45,7 @@ inline void collide_chunk(const float* const* src, float* post, int count, const
 #pragma GCC unroll 19
     for (int i = 0; i < q; ++i) {
       drho += f[i];
-      jx += static_cast<float>(cx[static_cast<std::size_t>(i)]) * f[i];
-      jy += static_cast<float>(cy[static_cast<std::size_t>(i)]) * f[i];
-      jz += static_cast<float>(cz[static_cast<std::size_t>(i)]) * f[i];
+      add_c(i, f[i], jx, jy, jz);
     }
     const float rho = 1.0f + drho;  // populations are shifted by w_i (rho_ref = 1)
     const float inv = 1.0f / rho;
@@ -56,9 +54,7 @@ inline void collide_chunk(const float* const* src, float* post, int count, const
 #pragma GCC unroll 19
     for (int i = 0; i < q; ++i) {
       const auto e = equilibrium_coefficients<float>(i, k.d);
-      const float cu = static_cast<float>(cx[static_cast<std::size_t>(i)]) * ux +
-                       static_cast<float>(cy[static_cast<std::size_t>(i)]) * uy +
-                       static_cast<float>(cz[static_cast<std::size_t>(i)]) * uz;
+      const float cu = dot_c(i, ux, uy, uz);
       const float feq = e.w * drho + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
       post[i * chunk + l] = f[i] - k.omega * (f[i] - feq);
     }

@@ -3,6 +3,8 @@
 // unit cube {-1,0,1}^3 (no corners), in the order of the lattice-Boltzmann cloud seed:
 // c_0 = 0, c_1..c_6 the axes, c_7..c_18 the diagonals. Opposite pairs are adjacent (1,2), (3,4)...
 #include <array>
+#include <cstddef>
+#include <utility>
 
 namespace nephos::lbm::d3q19 {
 
@@ -15,6 +17,33 @@ inline constexpr std::array<int, q> opposite{0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 1
 /// Isotropic gradient weights w_i / c_s^2 with the standard weights (1/18 axis, 1/36 diagonal)
 /// and c_s^2 = 1/3: grad(phi) ~ sum_i g_i phi(x + c_i) c_i.
 inline constexpr double gradient_weight(int i) { return i == 0 ? 0.0 : i <= 6 ? 3.0 / 18.0 : 3.0 / 36.0; }
+
+/// c_i . (x, y, z) with the zero components of c_i left out and the unit ones as additions and
+/// subtractions. Called with a constant i (inside a fully unrolled loop) only the non-zero
+/// terms remain; written as c_x x + c_y y + c_z z, IEEE rules keep every 0 * x (it could be a
+/// NaN or -0), a third of the arithmetic of a D3Q19 collision. Exact: the same value as the
+/// product form wherever that one has no signed-zero or NaN subtlety.
+template <class T>
+inline T dot_c(int i, T x, T y, T z) {
+  const auto iu = static_cast<std::size_t>(i);
+  T r = T(0);
+  bool any = false;
+  for (const auto& [c, v] : {std::pair{cx[iu], x}, std::pair{cy[iu], y}, std::pair{cz[iu], z}}) {
+    if (c == 0) continue;
+    r = any ? (c > 0 ? r + v : r - v) : (c > 0 ? v : -v);
+    any = true;
+  }
+  return r;
+}
+
+/// (sx, sy, sz) += c_i v with the zero components of c_i left out (see dot_c).
+template <class T>
+inline void add_c(int i, T v, T& sx, T& sy, T& sz) {
+  const auto iu = static_cast<std::size_t>(i);
+  if (cx[iu] != 0) sx = cx[iu] > 0 ? sx + v : sx - v;
+  if (cy[iu] != 0) sy = cy[iu] > 0 ? sy + v : sy - v;
+  if (cz[iu] != 0) sz = cz[iu] > 0 ? sz + v : sz - v;
+}
 
 /// The equilibrium of the seed (section 3, after eq. 6) with rest fraction d and unit lattice
 /// speed v = lambda / tau = 1:

@@ -267,17 +267,11 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
     float g1x = 0, g1y = 0, g1z = 0, g2x = 0, g2y = 0, g2z = 0;
 #pragma GCC unroll 18
     for (int i = 1; i < q; ++i) {
-      const auto iu = static_cast<std::size_t>(i);
+      // w_i c_i Psi with the zero components of c_i left out (see d3q19::dot_c).
       const float w = static_cast<float>(gradient_weight(i));
-      const float wx = w * static_cast<float>(cx[iu]), wy = w * static_cast<float>(cy[iu]),
-                  wz = w * static_cast<float>(cz[iu]);
-      const float a = in.psi_nb[i][l], b = in.rho2_nb[i][l];
-      g1x += wx * a;
-      g1y += wy * a;
-      g1z += wz * a;
-      g2x += wx * b;
-      g2y += wy * b;
-      g2z += wz * b;
+      const float a = w * in.psi_nb[i][l], b = w * in.rho2_nb[i][l];
+      add_c(i, a, g1x, g1y, g1z);
+      add_c(i, b, g2x, g2y, g2z);
     }
     // Momenta and density deviations of both components.
     float jx[2], jy[2], jz[2], drho[2];
@@ -286,12 +280,9 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
       float sx = 0, sy = 0, sz = 0, s = in.pop[c][0][l];
 #pragma GCC unroll 18
       for (int i = 1; i < q; ++i) {
-        const auto iu = static_cast<std::size_t>(i);
         const float v = in.pop[c][i][l];
         s += v;
-        sx += static_cast<float>(cx[iu]) * v;
-        sy += static_cast<float>(cy[iu]) * v;
-        sz += static_cast<float>(cz[iu]) * v;
+        add_c(i, v, sx, sy, sz);
       }
       jx[c] = sx, jy[c] = sy, jz[c] = sz, drho[c] = s;
     }
@@ -321,10 +312,8 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
       float feq_sum = 0;
 #pragma GCC unroll 18
       for (int i = 1; i < q; ++i) {
-        const auto iu = static_cast<std::size_t>(i);
         const auto e = equilibrium_coefficients<float>(i, k.d);
-        const float cu =
-            static_cast<float>(cx[iu]) * vx + static_cast<float>(cy[iu]) * vy + static_cast<float>(cz[iu]) * vz;
+        const float cu = dot_c(i, vx, vy, vz);
         const float feq = e.w * drho[c] + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
         feq_sum += feq;
         const float f = in.pop[c][i][l];

@@ -1,0 +1,69 @@
+#include "nephos/lbm/half.hpp"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "nephos/core/hash.hpp"
+#include "nephos/lbm/lattice.hpp"
+
+namespace nephos::lbm {
+
+TEST(Half, KnownBinary16Encodings) {
+  // IEEE 754 binary16 encodings (the standard's tables): exact values and round-to-nearest-even.
+  EXPECT_EQ(float_to_half(1.0f), 0x3c00);
+  EXPECT_EQ(float_to_half(-2.0f), 0xc000);
+  EXPECT_EQ(float_to_half(65504.0f), 0x7bff);             // largest finite half
+  EXPECT_EQ(float_to_half(65520.0f), 0x7c00);             // halfway to 2^16: ties to even, infinity
+  EXPECT_EQ(float_to_half(0x1p-14f), 0x0400);             // smallest normal
+  EXPECT_EQ(float_to_half(0x1p-24f), 0x0001);             // smallest subnormal
+  EXPECT_EQ(float_to_half(0x1p-25f), 0x0000);             // half of it: tie to even (zero)
+  EXPECT_EQ(float_to_half(0x1.8p-25f), 0x0001);           // above the tie
+  EXPECT_EQ(float_to_half(1.0f / 3.0f), 0x3555);          // 0.333251953125
+  EXPECT_EQ(float_to_half(1.0f + 0x1p-11f), 0x3c00);      // tie between 0x3c00 and 0x3c01: even
+  EXPECT_EQ(float_to_half(1.0f + 3 * 0x1p-11f), 0x3c02);  // tie between 0x3c01 and 0x3c02: even
+  EXPECT_EQ(float_to_half(-0.0f), 0x8000);
+  EXPECT_EQ(float_to_half(INFINITY), 0x7c00);
+  EXPECT_TRUE(std::isnan(half_to_float(float_to_half(NAN))));
+  EXPECT_EQ(half_to_float(0x3555), 0.333251953125f);
+  EXPECT_EQ(half_to_float(0x0001), 0x1p-24f);
+  EXPECT_EQ(half_to_float(0xfbff), -65504.0f);
+}
+
+TEST(Half, EveryHalfRoundTrips) {
+  for (std::uint32_t h = 0; h < 0x10000; ++h) {
+    const float f = half_to_float(static_cast<std::uint16_t>(h));
+    if (std::isnan(f)) continue;
+    ASSERT_EQ(float_to_half(f), h) << std::hex << h;
+  }
+}
+
+TEST(Half, VectorPathsMatchThePortableOne) {
+  // The F16C / AVX-512 paths (where compiled in) and the portable conversion give the same
+  // bits: results do not depend on the path. Every half, and 1e5 hashed floats over the range
+  // the lattice stores (scaled populations, |x| < 2^15).
+  std::vector<std::uint16_t> all(0x10000);
+  for (std::uint32_t h = 0; h < 0x10000; ++h) all[h] = static_cast<std::uint16_t>(h);
+  std::vector<float> f(all.size());
+  halves_to_floats(all.data(), f.data(), static_cast<int>(all.size()), 1.0f);
+  for (std::uint32_t h = 0; h < 0x10000; ++h) {
+    const float ref = half_to_float(all[h]);
+    if (std::isnan(ref)) continue;
+    ASSERT_EQ(std::bit_cast<std::uint32_t>(f[h]), std::bit_cast<std::uint32_t>(ref)) << std::hex << h;
+  }
+  const int n = 100000;
+  std::vector<float> src(n);
+  for (int k = 0; k < n; ++k) {
+    const double u = uniform01(7, 0x4a1f, static_cast<std::uint64_t>(k));
+    src[static_cast<std::size_t>(k)] = static_cast<float>((u - 0.5) * std::ldexp(1.0, static_cast<int>(u * 60) - 44));
+  }
+  alignas(64) static std::uint16_t dst[100000 + 32];
+  floats_to_halves_streaming(dst, src.data(), n, 1.0f);
+  stream_fence();
+  for (int k = 0; k < n; ++k) ASSERT_EQ(dst[k], float_to_half(src[static_cast<std::size_t>(k)])) << src[k];
+}
+
+}  // namespace nephos::lbm
