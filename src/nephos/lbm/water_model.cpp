@@ -221,7 +221,15 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
     for (int x0 = 0; x0 < nx; x0 += line) {
       const int count = std::min(line, nx - x0);
       const float* src[d3q19::q];
-      for (int i = 0; i < d3q19::q; ++i) src[i] = pulled(rs, i, x0, count, buf + i * line);
+      for (int i = 0; i < d3q19::q; ++i) {
+        // Software prefetch of the same stream one row ahead (consecutive rows of a direction
+        // are consecutive in memory): 19 streams at a time are more than the hardware
+        // prefetchers follow, and without it this pass waits on memory (measured ~15 % of a step).
+        const char* ahead = reinterpret_cast<const char*>(rs.row[static_cast<std::size_t>(i)] + x0 + nx);
+        __builtin_prefetch(ahead);
+        if constexpr (sizeof(T) * line > 64) __builtin_prefetch(ahead + 64);
+        src[i] = pulled(rs, i, x0, count, buf + i * line);
+      }
       float* rho = (c == 0 ? rows.rho1 : rows.rho2) + base + x0;
 #pragma omp simd
       for (int l = 0; l < count; ++l) {
