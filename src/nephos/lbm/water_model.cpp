@@ -248,7 +248,7 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
 struct WaterModel::RowScratch {
   alignas(64) float edge[2][d3q19::q * line];  // neighbours' Psi_1 and rho_2 of lines that wrap around x
   alignas(64) float pop[2][d3q19::q * line];   // pulled populations where they are not FP32 in place
-  alignas(64) float post[2][d3q19::q * line];  // post-collision populations of a line
+  std::vector<float> post[2];                  // post-collision populations of a row (q x nx), sized by the caller
 };
 
 namespace {
@@ -267,7 +267,8 @@ struct WaterConstants {
 // shifted velocity (eq. 10) and the LBGK collision of `count` cells, written per cell and
 // vectorised across the chunk. All in FP32: the populations are shifted by their rest values,
 // so FP32 rounds the deviations, not the densities.
-inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2]) {
+inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2],
+                          std::size_t stride) {
   using namespace d3q19;
 #pragma omp simd
   for (int l = 0; l < count; ++l) {
@@ -325,7 +326,7 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
         const float feq = e.w * drho[c] + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
         feq_sum += feq;
         const float f = in.pop[c][i][l];
-        post[c][i * line + l] = f - omega * (f - feq);
+        post[c][static_cast<std::size_t>(i) * stride + static_cast<std::size_t>(l)] = f - omega * (f - feq);
       }
       const float f0 = in.pop[c][0][l];
       post[c][l] = f0 - omega * (f0 - (drho[c] - feq_sum));
@@ -386,14 +387,16 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
       in.rho1 = rows.rho1 + dbase + x0 + l0;
       in.rho2 = rows.rho2 + dbase + x0 + l0;
       in.psi1 = rows.psi1 + dbase + x0 + l0;
-      float* const post[2] = {scratch.post[0] + l0, scratch.post[1] + l0};
-      collide_chunk(in, std::min(chunk, count - l0), k, post);
+      float* const post[2] = {scratch.post[0].data() + x0 + l0, scratch.post[1].data() + x0 + l0};
+      collide_chunk(in, std::min(chunk, count - l0), k, post, static_cast<std::size_t>(nx));
     }
-    for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i)
-        store_line(storage<T>(next_[c]) + static_cast<std::size_t>(i) * n + base + x0, scratch.post[c] + i * line,
-                   count);
   }
+  // The row's post-collision populations out, one direction row at a time: 19 streams of
+  // whole rows instead of 38 interleaved lines.
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i)
+      store_line(storage<T>(next_[c]) + static_cast<std::size_t>(i) * n + base,
+                 scratch.post[c].data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx), nx);
 }
 
 void WaterModel::step_stage(Stage stage) {
@@ -422,6 +425,7 @@ void WaterModel::step_stage_impl(Stage stage) {
 #pragma omp parallel
   {
     RowScratch scratch;
+    for (auto& p : scratch.post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(g_.nx), 0.0f);
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
       for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows());
@@ -451,6 +455,7 @@ void WaterModel::fused_step_impl() {
 #pragma omp parallel
   {
     RowScratch scratch;
+    for (auto& p : scratch.post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(g_.nx), 0.0f);
     std::vector<float> dens(3 * ring);
 #pragma omp for schedule(static)
     for (int b = 0; b < blocks; ++b) {
