@@ -79,10 +79,10 @@ RowSourcesOf<T> row_sources(const Grid3& g, const T* f, int y, int z, ZBoundary 
 
 /// Cells per chunk in the register-resident kernels: one 64-byte line of a population row.
 /// A chunk's populations, moments and equilibria stay in vector registers, written per cell in
-/// an `omp simd` loop over the chunk; nothing goes through row-sized buffers.
+/// an `omp simd` loop over the chunk.
 inline constexpr int chunk_cells = 16;
 
-/// The `count` (<= chunk_cells) values row[x0 + offset + l], l < count, of a row periodic in x
+/// The `count` values row[x0 + offset + l], l < count <= nx, of a row periodic in x
 /// (nx values, |offset| <= 1): a pointer into the row, or, where the span wraps around the row's
 /// ends, into `edge` after copying them there.
 inline const float* periodic_span(const float* row, int nx, int x0, int offset, int count, float* edge) {

@@ -7,8 +7,6 @@
 #include <cstring>
 #include <fstream>
 
-#include <omp.h>
-
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
@@ -154,8 +152,8 @@ WaterModel::DensityRows WaterModel::lattice_rows() {
 }
 
 namespace {
-// Cells per line: what the kernels read and write at a time per direction, a whole 64-byte
-// line of FP16 storage (two of FP32), so streaming stores never write part of a line.
+// Cells per line: what the kernels pull at a time per direction, a whole 64-byte line of FP16
+// storage (two of FP32).
 constexpr int line = 2 * chunk;
 
 template <class T>

@@ -126,7 +126,7 @@ class WaterModel {
   /// relative to the block's first row, with one halo row on each side).
   struct DensityRows {
     float *rho1, *rho2, *psi1;
-    int nx, ny, y_offset, rows_per_plane, planes;  ///< planes: ring size (0: the lattice)
+    int nx, ny, y_offset, rows_per_plane, planes;  ///< planes: 3 for a block's ring, 0 for the lattice
     std::size_t row(int y, int z) const {          // y in [-1, ny], z >= 0
       const int yl = planes == 0 ? (y < 0 ? y + ny : (y >= ny ? y - ny : y)) : y + y_offset;
       const int zl = planes == 0 ? z : z % 3;  // the ring has three planes
