@@ -571,8 +571,19 @@ class Bench(unittest.TestCase):
         r = run("bench", "lbm", "--size", "32", "--repeat", "2")
         self.assertEqual(r.returncode, 0, r.stderr)
         for anchor in ("STREAM triad", "MLUPS", "roofline", "0.26 s", "percolation K=5", "40 s", "lighting", "18 s",
-                       "ray casting 640x480", "3 s", "peak resident memory"):
+                       "ray casting 640x480", "3 s", "peak resident memory",
+                       "FP16 storage"):
             self.assertIn(anchor, r.stdout)
+
+    def test_lbm_bench_kernel_selection(self):
+        r = run("bench", "lbm", "--size", "32", "--repeat", "2", "--kernels", "bgk,water16")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("MLUPS", r.stdout)
+        self.assertIn("FP16 storage", r.stdout)
+        self.assertNotIn("percolation", r.stdout)
+        bad = run("bench", "lbm", "--kernels", "bgk,nope")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("unknown kernel 'nope'", bad.stderr)
 
 
 class Usage(unittest.TestCase):
