@@ -243,6 +243,30 @@ class Lbm(unittest.TestCase):
             self.assertEqual(r.returncode, 2)
             self.assertIn("missing.bin", r.stderr)
             self.assertFalse(out.exists())
+            r = run("lbm", "--grid", "16x16x16", "--storage", "fp8", "--out", out)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("fp16", r.stderr)
+            r = run("lbm", "--resume", Path(d) / "any.bin", "--storage", "fp16", "--out", out)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("keeps the storage of its checkpoint", r.stderr)
+            self.assertFalse(out.exists())
+
+    def test_fp16_storage_runs_and_resumes(self):
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            common = ("--size", "64x48", "--percolation", "0", "--storage")
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "8", *common, "fp16", "--out", d / "a")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            r = run("lbm", "--grid", "16x16x16", "--iterations", "4", "--checkpoint-every", "4", *common, "fp16",
+                    "--out", d / "b")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "8", "--size", "64x48",
+                    "--percolation", "0", "--out", d / "c")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")
+            self.assertTrue(np.array_equal(a["vapour_density"][:], c["vapour_density"][:]))
 
 
 class Fly(unittest.TestCase):
