@@ -10,6 +10,7 @@
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
+#include "nephos/lbm/vector_math.hpp"
 
 namespace nephos::lbm {
 
@@ -240,7 +241,8 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
   }
   float* psi = rows.psi1 + base;
   const float* r1 = rows.rho1 + base;
-  for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - std::exp(-r1[x] / rho10));
+#pragma omp simd
+  for (int x = 0; x < nx; ++x) psi[x] = rho10 * (1.0f - exp_nonpositive(-r1[x] / rho10));
 }
 
 struct WaterModel::RowScratch {
