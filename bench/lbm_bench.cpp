@@ -8,6 +8,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nephos/core/error.hpp"
@@ -21,6 +22,11 @@
 namespace nephos::bench {
 namespace {
 
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 template <class F>
 double median_seconds(int repeat, F&& f) {
   std::vector<double> t;
@@ -29,8 +35,7 @@ double median_seconds(int repeat, F&& f) {
     f();
     t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
-  std::sort(t.begin(), t.end());
-  return t[t.size() / 2];
+  return median(std::move(t));
 }
 
 double peak_rss_mib() {
@@ -64,17 +69,12 @@ class Triad {
   std::vector<double> a_, b_, c_;
 };
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 int run_lbm_bench(const LbmBenchOptions& o, std::uint64_t seed) {
   const int s = o.size;
-  bool run_bgk = false, run_water = false, run_water16 = false, run_chain = false;  // chain: percolation, lighting,
-                                                                                    // ray casting
+  // chain: percolation, lighting and ray casting, which share their inputs.
+  bool run_bgk = false, run_water = false, run_water16 = false, run_chain = false;
   std::stringstream list(o.kernels);
   for (std::string k; std::getline(list, k, ',');) {
     if (k == "all") {

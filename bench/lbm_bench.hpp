@@ -9,7 +9,7 @@ namespace nephos::bench {
 struct LbmBenchOptions {
   int size = 128;
   int repeat = 10;
-  /// Comma-separated subset of: bgk, water, percolation, lighting, raycast ("all" by default;
+  /// Comma-separated subset of: bgk, water, water16 (FP16 storage), percolation, lighting, raycast ("all" by default;
   /// percolation, lighting and ray casting share their inputs, so any of them runs all three).
   std::string kernels = "all";
 };

@@ -762,8 +762,10 @@ int main(int argc, char** argv) {
   bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
   bench_lbm->add_option("--repeat", lbo.repeat, "Timed repetitions (median reported)")->capture_default_str();
   bench_lbm
-      ->add_option("--kernels", lbo.kernels,
-                   "Comma-separated subset of bgk, water, percolation, lighting, raycast (the last three run together)")
+      ->add_option(
+          "--kernels", lbo.kernels,
+          "Comma-separated subset of bgk, water, water16 (FP16 storage), percolation, lighting, raycast (the last "
+          "three run together)")
       ->capture_default_str();
 
   try {

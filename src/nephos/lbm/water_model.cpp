@@ -246,9 +246,12 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
 }
 
 struct WaterModel::RowScratch {
+  explicit RowScratch(int nx) {
+    for (auto& p : post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx), 0.0f);
+  }
   alignas(64) float edge[2][d3q19::q * line];  // neighbours' Psi_1 and rho_2 of lines that wrap around x
   alignas(64) float pop[2][d3q19::q * line];   // pulled populations where they are not FP32 in place
-  std::vector<float> post[2];                  // post-collision populations of a row (q x nx), sized by the caller
+  std::vector<float> post[2];                  // post-collision populations of a row (q x nx)
 };
 
 namespace {
@@ -424,8 +427,7 @@ void WaterModel::step_stage_impl(Stage stage) {
   const int y0 = owned_begin(), y1 = owned_end();
 #pragma omp parallel
   {
-    RowScratch scratch;
-    for (auto& p : scratch.post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(g_.nx), 0.0f);
+    RowScratch scratch(g_.nx);
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
       for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows());
@@ -454,8 +456,7 @@ void WaterModel::fused_step_impl() {
   const std::size_t ring = static_cast<std::size_t>(3) * (block + 2) * static_cast<std::size_t>(nx);
 #pragma omp parallel
   {
-    RowScratch scratch;
-    for (auto& p : scratch.post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(g_.nx), 0.0f);
+    RowScratch scratch(g_.nx);
     std::vector<float> dens(3 * ring);
 #pragma omp for schedule(static)
     for (int b = 0; b < blocks; ++b) {
