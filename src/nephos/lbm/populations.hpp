@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -42,8 +43,6 @@ class Populations {
   }
   Storage storage() const { return storage_; }
   std::size_t size() const { return storage_ == Storage::fp32 ? f32_.size() : f16_.size(); }
-  /// Bytes per stored population.
-  std::size_t bytes_per_value() const { return storage_ == Storage::fp32 ? 4 : 2; }
 
   float get(std::size_t k) const {
     return storage_ == Storage::fp32 ? f32_[k] : half_to_float(f16_[k]) * (1.0f / fp16_scale);
@@ -66,10 +65,21 @@ class Populations {
     for (std::size_t j = 0; j < n; ++j) set(k + j, in[j]);
   }
 
-  float* f32() { return f32_.data(); }
-  const float* f32() const { return f32_.data(); }
-  std::uint16_t* f16() { return f16_.data(); }
-  const std::uint16_t* f16() const { return f16_.data(); }
+  /// The stored values as T: float (FP32 storage) or std::uint16_t (FP16 bits).
+  template <class T>
+  T* data() {
+    if constexpr (std::is_same_v<T, float>)
+      return f32_.data();
+    else
+      return f16_.data();
+  }
+  template <class T>
+  const T* data() const {
+    if constexpr (std::is_same_v<T, float>)
+      return f32_.data();
+    else
+      return f16_.data();
+  }
 
   void swap(Populations& other) noexcept {
     std::swap(storage_, other.storage_);

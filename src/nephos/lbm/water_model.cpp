@@ -157,21 +157,6 @@ namespace {
 // storage (two of FP32).
 constexpr int line = 2 * chunk;
 
-template <class T>
-const T* storage(const Populations& p);
-template <>
-const float* storage<float>(const Populations& p) {
-  return p.f32();
-}
-template <>
-const std::uint16_t* storage<std::uint16_t>(const Populations& p) {
-  return p.f16();
-}
-template <class T>
-T* storage(Populations& p) {
-  return const_cast<T*>(storage<T>(static_cast<const Populations&>(p)));
-}
-
 // The `count` (<= line) pulled populations of direction i at cells x0 ... of a row as floats:
 // a pointer into FP32 storage (or into `buf`, where the row wraps around x), or the FP16
 // values converted into `buf`.
@@ -215,7 +200,7 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
   const int wy = y < 0 ? y + g_.ny : (y >= g_.ny ? y - g_.ny : y);  // y in [-1, ny]
   alignas(64) float buf[d3q19::q * line];  // pulled populations where they are not FP32 in place
   for (int c = 0; c < 2; ++c) {
-    const RowSourcesOf<T> rs = row_sources(g_, storage<T>(f_[c]), wy, z, zb);
+    const RowSourcesOf<T> rs = row_sources(g_, f_[c].data<T>(), wy, z, zb);
     const float ref = static_cast<float>(reference(p_, c));
     for (int x0 = 0; x0 < nx; x0 += line) {
       const int count = std::min(line, nx - x0);
@@ -354,8 +339,8 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
                          static_cast<float>(p_.buoyancy_reference)};
   const std::size_t base = g_.index(0, y, z), dbase = rows.row(y, z);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-  const RowSourcesOf<T> rs[2] = {row_sources(g_, storage<T>(f_[0]), y, z, zb),
-                                 row_sources(g_, storage<T>(f_[1]), y, z, zb)};
+  const RowSourcesOf<T> rs[2] = {row_sources(g_, f_[0].data<T>(), y, z, zb),
+                                 row_sources(g_, f_[1].data<T>(), y, z, zb)};
   // Neighbour rows of the gradients (walls: the row beyond is the row itself).
   const float* psi_row[d3q19::q];
   const float* rho2_row[d3q19::q];
@@ -398,7 +383,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
   // whole rows instead of 38 interleaved lines.
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i)
-      store_line(storage<T>(next_[c]) + static_cast<std::size_t>(i) * n + base,
+      store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * n + base,
                  scratch.post[c].data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx), nx);
 }
 
