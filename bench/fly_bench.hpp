@@ -9,6 +9,7 @@ namespace nephos::bench {
 
 struct FlyBenchOptions {
   int frames = 60;
+  std::string tests = "ABCDE";  ///< which of tests A-E to run (letters)
   int width = 1280, height = 720;
   std::string plot = "out/bench_fly.png";  ///< bar plot of p95 frame time per case ("" = none)
 };

@@ -750,6 +750,8 @@ int main(int argc, char** argv) {
   bench::FlyBenchOptions fbo;
   auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
   bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str();
+  bench_fly->add_option("--tests", fbo.tests, "Which of the thesis's tests A-E to run (letters, e.g. E)")
+      ->capture_default_str();
   bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
   bench::ParticlesBenchOptions pbo;
   auto* bench_part =

@@ -166,6 +166,15 @@ GLuint compile(GLenum type, const std::string& src) {
 
 }  // namespace
 
+namespace {
+// A sprite's identity across frames: its cloud (id, relocations) and its index in the cloud.
+struct SpriteKey {
+  std::uint64_t cloud;
+  std::uint32_t sprite;
+  auto operator<=>(const SpriteKey&) const = default;
+};
+}  // namespace
+
 struct SpriteRenderer::Impl {
   EGLDisplay dpy = EGL_NO_DISPLAY;
   EGLContext ctx = EGL_NO_CONTEXT;
@@ -193,7 +202,7 @@ struct SpriteRenderer::Impl {
   glm::dvec3 back_centre{0.0};
   int next_sector = -1;                                // sector of the back set to render this frame; -1: not building
   int crossfade = -1;                                  // frame of the crossfade; -1: none
-  std::vector<std::uint64_t> captured[2];              // clouds (id, relocations) in each set, sorted
+  std::vector<SpriteKey> captured[2];                  // sprites in each set, sorted
   std::array<bool, 8> sector_empty[2] = {};            // nothing was rendered into the sector
   double tan_low[2] = {-1, -1}, tan_high[2] = {1, 1};  // vertical extent of each set's impostors
   std::uint64_t generation = 0;                        // bumps when the sprite set changes
@@ -203,9 +212,19 @@ namespace {
 
 std::uint64_t cloud_key(const SpriteCloud& c) { return (static_cast<std::uint64_t>(c.id) << 32) | c.relocations; }
 
-bool captured_in(const std::vector<std::uint64_t>& set, const SpriteCloud& c) {
-  return std::binary_search(set.begin(), set.end(), cloud_key(c));
+// The sprites of cloud `c` an impostor set holds: one flag per sprite, by a merge against the
+// set's sorted keys (the cloud's keys are contiguous there). Returns whether any is held.
+bool captured_sprites(const std::vector<SpriteKey>& set, const SpriteCloud& c, std::vector<char>& held) {
+  held.assign(c.sprites.size(), 0);
+  const std::uint64_t key = cloud_key(c);
+  bool any = false;
+  for (auto it = std::lower_bound(set.begin(), set.end(), SpriteKey{key, 0}); it != set.end() && it->cloud == key; ++it)
+    if (it->sprite < held.size()) held[it->sprite] = 1, any = true;
+  return any;
 }
+
+// Radius of the sphere a sprite's billboard stays inside whichever way it faces [m].
+double sprite_radius(const Sprite& s) { return 0.5 * M_SQRT2 * s.size_m; }
 
 // Shading of one sprite (MSFS 2004): five colour levels by height within the cloud (dark base,
 // white top) times a time-of-day ambient factor, plus a directional term per shading group; the
@@ -465,19 +484,24 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   t.sun = sun.direction;
   glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
   glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, m.imp_tex[set], 0, sector);
-  // The captured clouds that overlap this 45-degree sector, back to front from the ring centre.
+  // The captured sprites that overlap this 45-degree sector, back to front from the ring centre.
   std::vector<glm::dvec3> pos;
   std::vector<std::pair<const SpriteCloud*, const Sprite*>> items;
-  for (const auto& c : field.clouds()) {
-    if (!captured_in(m.captured[set], c)) continue;
-    const glm::dvec2 d{c.centre.x - centre.x, c.centre.y - centre.y};
+  std::vector<char> held;
+  auto overlaps = [&](const glm::dvec3& p, double r) {
+    const glm::dvec2 d{p.x - centre.x, p.y - centre.y};
     const double dist = glm::length(d);
     double off = std::fmod(std::abs(std::atan2(d.y, d.x) - a), 2 * M_PI);
     off = std::min(off, 2 * M_PI - off);  // angle to the sector's axis
-    if (off > M_PI / 8 + std::asin(std::min(1.0, c.radius_m / std::max(dist, 1.0)))) continue;
-    for (const auto& s : c.sprites) {
-      pos.push_back(c.centre + glm::dvec3(s.offset));
-      items.push_back({&c, &s});
+    return off <= M_PI / 8 + std::asin(std::min(1.0, r / std::max(dist, 1.0)));
+  };
+  for (const auto& c : field.clouds()) {
+    if (!captured_sprites(m.captured[set], c, held) || !overlaps(c.centre, c.radius_m)) continue;
+    for (std::size_t k = 0; k < c.sprites.size(); ++k) {
+      const glm::dvec3 p = c.centre + glm::dvec3(c.sprites[k].offset);
+      if (!held[k] || !overlaps(p, sprite_radius(c.sprites[k]))) continue;
+      pos.push_back(p);
+      items.push_back({&c, &c.sprites[k]});
     }
   }
   const auto order = back_to_front(pos, centre);
@@ -499,26 +523,30 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // The impostor ring lives in the frame of the (drifting) air, like the clouds it holds: its
   // centre and the re-render thresholds are measured there, and its quads drift with the wind.
   const glm::dvec3 air(field.drift_offset_m(), 0.0), cam_air = cam.position - air;
-  // The clouds an impostor set holds, and the vertical extent of its images: MSFS 2004 moves the
-  // impostors up or down to where the clouds are; nephos fits an off-centre frustum to them
-  // (within the +-10,000 ft rule's angle), so their texels and fill cover clouds, not sky.
+  // The sprites an impostor set holds, and the vertical extent of its images. MSFS 2004 "renders
+  // only the sections beyond the radius into impostors"; nephos decides per sprite, so a cloud
+  // across the ring has its far sprites in the impostor and its near ones drawn as sprites (in
+  // front, being nearer). MSFS moves the impostors up or down to where the clouds are; nephos
+  // fits an off-centre frustum to them (within the +-10,000 ft rule's angle), so their texels
+  // and fill cover clouds, not sky.
   auto capture = [&](int set, const glm::dvec3& centre) {
-    std::vector<std::uint64_t> ids;
+    std::vector<SpriteKey> keys;
     double lo = 1e9, hi = -1e9;
     for (const auto& c : field.clouds()) {  // forming or dissipating clouds stay sprites
-      if (c.fading() || c.opacity != 1 || !m.ring.in_impostor(c.centre, c.radius_m, centre)) continue;
-      ids.push_back(cloud_key(c));
-      double z_lo = 1e9, z_hi = -1e9;  // the cloud's vertical extent from its sprites
-      for (const auto& sp : c.sprites) {
-        z_lo = std::min(z_lo, c.centre.z + sp.offset.z - 0.5 * sp.size_m);
-        z_hi = std::max(z_hi, c.centre.z + sp.offset.z + 0.5 * sp.size_m);
+      if (c.fading() || c.opacity != 1) continue;
+      for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
+        const Sprite& sp = c.sprites[k];
+        const glm::dvec3 p = c.centre + glm::dvec3(sp.offset);
+        const double r = sprite_radius(sp);
+        if (!m.ring.in_impostor(p, r, centre)) continue;
+        keys.push_back({cloud_key(c), k});
+        const double dh = glm::length(glm::dvec2(p - centre)) - r;  // > ring radius
+        lo = std::min(lo, (p.z - 0.5 * sp.size_m - centre.z) / dh);
+        hi = std::max(hi, (p.z + 0.5 * sp.size_m - centre.z) / dh);
       }
-      const double dh = glm::length(glm::dvec2(c.centre - centre)) - c.radius_m;  // > ring radius
-      lo = std::min(lo, (z_lo - centre.z) / dh);
-      hi = std::max(hi, (z_hi - centre.z) / dh);
     }
-    std::sort(ids.begin(), ids.end());
-    m.captured[set] = std::move(ids);
+    std::sort(keys.begin(), keys.end());
+    m.captured[set] = std::move(keys);
     const double limit = std::tan(impostor_half_height(m.ring));
     m.tan_low[set] = hi > lo ? std::max(-limit, lo - 0.02) : -limit;
     m.tan_high[set] = hi > lo ? std::min(limit, hi + 0.02) : limit;
@@ -605,8 +633,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer, size / tile_m, offset,
                   glm::dvec3(0.0), 1.0);
   }
-  // Sprites of the clouds not in an impostor; during a crossfade a cloud in only one set is
-  // also drawn as sprites, fading against that set.
+  // Sprites not in an impostor; during a crossfade a sprite in only one set is also drawn as a
+  // sprite, fading against that set.
   std::vector<glm::dvec3> pos;
   struct Item {
     const SpriteCloud* cloud;
@@ -616,27 +644,38 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   };
   std::vector<Item> items;
   std::uint64_t lod_signature = 0;  // which clouds are drawn as their LOD sprite (order validity)
+  std::vector<char> in_front, in_back;
   for (const auto& c : field.clouds()) {
-    double alpha = c.opacity;
+    if (c.opacity <= 0) continue;
+    bool held = false;  // some of its sprites are in an impostor set
     if (impostors && m.ring.valid) {
-      const bool in_front = captured_in(m.captured[m.front], c);
-      const bool in_back = fading_sets && captured_in(m.captured[back], c);
-      if (!fading_sets && in_front) continue;
+      held = captured_sprites(m.captured[m.front], c, in_front);
       if (fading_sets) {
-        if (in_front && in_back) continue;
-        if (in_front) alpha *= back_weight;
-        if (in_back) alpha *= 1 - back_weight;
+        held = captured_sprites(m.captured[back], c, in_back) || held;
+      } else {
+        in_back.assign(c.sprites.size(), 0);
       }
     }
-    if (alpha <= 0) continue;
+    // Opacity of sprite k drawn as a sprite: zero while an impostor set shows it alone; during a
+    // crossfade a sprite in only one set fades against that set.
+    auto alpha_of = [&](std::size_t k) {
+      if (!held) return double{c.opacity};
+      const bool f = in_front[k], b = in_back[k];
+      if (!fading_sets) return f ? 0.0 : double{c.opacity};
+      if (f && b) return 0.0;
+      return c.opacity * (f ? back_weight : 1.0) * (b ? 1 - back_weight : 1.0);
+    };
     const double lod = m.single_sprite_distance_m;
-    if (lod > 0 && CloudField::sprites_to_draw(c, glm::length(c.centre - cam.position), lod) == 1) {
+    if (!held && lod > 0 && CloudField::sprites_to_draw(c, glm::length(c.centre - cam.position), lod) == 1) {
+      const double alpha = c.opacity;
       pos.push_back(c.centre + glm::dvec3(c.lod.offset));
       items.push_back({&c, &c.lod, lod_index, alpha});
       lod_signature += (static_cast<std::uint64_t>(c.id) + 1) * 0x9e3779b97f4a7c15ull;
       continue;
     }
     for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
+      const double alpha = alpha_of(k);
+      if (alpha <= 0) continue;
       pos.push_back(c.centre + glm::dvec3(c.sprites[k].offset));
       items.push_back({&c, &c.sprites[k], k, alpha});
     }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "nephos/core/error.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
@@ -79,6 +81,33 @@ TEST(SpriteRendererGl, SingleSpriteLevelOfDetailFarAway) {
   renderer.set_single_sprite_distance(0);
   EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());
   EXPECT_THROW(renderer.set_single_sprite_distance(-1), ValueError);
+}
+
+TEST(SpriteRendererGl, ImpostorsHoldTheSpritesBeyondTheRingNotWholeClouds) {
+  // MSFS 2004 renders "only the sections beyond the radius into impostors": a sprite goes into
+  // the ring when the sphere its billboard turns within (radius size / sqrt 2) lies wholly
+  // beyond the ring radius and within 10,000 ft vertically; the rest are drawn as sprites. The
+  // first frame builds the ring, so the sprites drawn are counted from the field's geometry.
+  const glm::dvec3 eye{0, 0, 2400};
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 5, eye);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera cam{eye, {1, 0, -0.05}, {0, 0, 1}, 60};
+  ImpostorRing ring;  // the renderer's defaults: 8 km, 10,000 ft
+  std::size_t near = 0, split_clouds = 0;
+  for (const SpriteCloud& c : field.clouds()) {
+    std::size_t held = 0;
+    for (const Sprite& s : c.sprites)
+      held += ring.in_impostor(c.centre + glm::dvec3(s.offset), 0.5 * std::sqrt(2.0) * s.size_m, eye);
+    near += c.sprites.size() - held;
+    split_clouds += held > 0 && held < c.sprites.size();
+  }
+  ASSERT_GT(split_clouds, 0u) << "no cloud across the ring in this field";
+  ASSERT_LT(near, field.sprite_count() / 2);
+  SpriteRenderer renderer(96, 64, 5);
+  const FrameStats first = renderer.draw(field, cam, sun, true, true);
+  EXPECT_EQ(first.impostor_updates, 8);
+  EXPECT_EQ(first.sprites, near);
+  EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());  // ring off: every sprite
 }
 
 TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
