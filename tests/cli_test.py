@@ -585,6 +585,16 @@ class Bench(unittest.TestCase):
         for anchor in ("p95 ms", "p99 ms", "CPU load", "200"):
             self.assertIn(anchor, r.stdout)
 
+    def test_fly_bench_test_selection(self):
+        r = run("bench", "fly", "--frames", "2", "--tests", "B", "--plot", "")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        rows = [l.split()[0] for l in r.stdout.splitlines() if l[:1] in "ABCDE" and l[1:2] == " "]
+        self.assertEqual(rows, ["B"] * 8)  # clustered x sort-optimised x impostors
+        self.assertNotIn("test E", r.stdout)
+        bad = run("bench", "fly", "--tests", "EX", "--plot", "")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("expected letters A-E", bad.stderr)
+
     def test_particles_bench_smoke(self):
         r = run("bench", "particles", "--frames", "1", "--max-count", "100000")
         self.assertEqual(r.returncode, 0, r.stderr)
