@@ -154,10 +154,16 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   //    trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)); most paths (steep views) are
   //    shorter than one skip radius and need only their two ends. All lookups are batched:
   //    the ends of every ray, then the interior points of the long paths still undecided.
+  //    Only the rays that cross the shell are looked up (a GEO frame's space pixels do not).
   const double radius = shell.skip_radius_rad();
-  w.resize_ends(n);
+  std::size_t nc = 0;  // rays crossing the shell, compacted into idx
+  w.idx.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (w.in_shell[i]) w.idx[nc++] = static_cast<std::uint32_t>(i);
+  w.resize_ends(nc);
 #pragma omp simd
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t c = 0; c < nc; ++c) {
+    const std::uint32_t i = w.idx[c];
     const double len = w.len[i];
     const double t0 = w.a0[i], t1 = len <= w.la[i] ? w.a0[i] + len : w.b0[i] + (len - w.la[i]);
     const double x0 = std::fma(t0, d[i].x, o.x), y0 = std::fma(t0, d[i].y, o.y), z0 = std::fma(t0, d[i].z, o.z);
@@ -166,20 +172,21 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     const double cx = x0 / r0 - x1 / r1, cy = y0 / r0 - y1 / r1, cz = z0 / r0 - z1 / r1;
     const double c2 = cx * cx + cy * cy + cz * cz;
     const double arc_bound = std::sqrt(c2 / std::max(1 - 0.25 * c2, 1e-12));
-    w.segments[i] = 1 + static_cast<int>(std::min(arc_bound / radius, 1e6));
-    w.ex[i] = x0, w.ey[i] = y0, w.ez[i] = z0, w.ex[n + i] = x1, w.ey[n + i] = y1, w.ez[n + i] = z1;
+    w.segments[c] = 1 + static_cast<int>(std::min(arc_bound / radius, 1e6));
+    w.ex[c] = x0, w.ey[c] = y0, w.ez[c] = z0, w.ex[nc + c] = x1, w.ey[nc + c] = y1, w.ez[nc + c] = z1;
   }
-  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), 2 * n, w.possible.data());
+  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), 2 * nc, w.possible.data());
   w.owner.clear();
   w.ix.clear(), w.iy.clear(), w.iz.clear();
-  for (std::size_t i = 0; i < n; ++i) {
-    w.possible[i] = w.in_shell[i] && (w.possible[i] || w.possible[n + i]);
-    if (!w.in_shell[i] || w.possible[i]) continue;
+  for (std::size_t c = 0; c < nc; ++c) {
+    w.possible[c] = w.possible[c] || w.possible[nc + c];
+    if (w.possible[c]) continue;
+    const std::uint32_t i = w.idx[c];
     const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
-    const int m = w.segments[i];
+    const int m = w.segments[c];
     for (int j = 1; j < m; ++j) {
       const double t = path.t_at(path.length() * j / m);
-      w.owner.push_back(static_cast<std::uint32_t>(i));
+      w.owner.push_back(static_cast<std::uint32_t>(c));
       w.ix.push_back(std::fma(t, d[i].x, o.x)), w.iy.push_back(std::fma(t, d[i].y, o.y));
       w.iz.push_back(std::fma(t, d[i].z, o.z));
     }
@@ -187,10 +194,9 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   w.interior.resize(w.owner.size());
   shell.may_have_cloud(w.ix.data(), w.iy.data(), w.iz.data(), w.owner.size(), w.interior.data());
   for (std::size_t k = 0; k < w.owner.size(); ++k) w.possible[w.owner[k]] |= w.interior[k];
-  std::size_t nr = 0;
-  w.idx.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
-    if (w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
+  std::size_t nr = 0;  // rays marched, compacted into idx (in place: nr <= c)
+  for (std::size_t c = 0; c < nc; ++c)
+    if (w.possible[c]) w.idx[nr++] = w.idx[c];
   if (nr == 0) return;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
