@@ -164,15 +164,13 @@ GLuint compile(GLenum type, const std::string& src) {
   return s;
 }
 
-}  // namespace
-
-namespace {
 // A sprite's identity across frames: its cloud (id, relocations) and its index in the cloud.
 struct SpriteKey {
   std::uint64_t cloud;
   std::uint32_t sprite;
   auto operator<=>(const SpriteKey&) const = default;
 };
+
 }  // namespace
 
 struct SpriteRenderer::Impl {
