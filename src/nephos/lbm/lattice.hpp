@@ -82,20 +82,32 @@ RowSourcesOf<T> row_sources(const Grid3& g, const T* f, int y, int z, ZBoundary 
 /// an `omp simd` loop over the chunk.
 inline constexpr int chunk_cells = 16;
 
+/// The contiguous pieces of the span row[first + l], l < count <= nx, of a row periodic in x
+/// (nx values, -1 <= first <= nx - count + 1): calls piece(source index, destination index,
+/// length) once where the span lies inside the row, twice where it wraps around an end.
+template <class Piece>
+inline void periodic_pieces(int nx, int first, int count, Piece&& piece) {
+  if (first >= 0 && first + count <= nx) {
+    piece(first, 0, count);
+  } else if (first < 0) {  // first == -1: the row's last value, then its head
+    piece(nx - 1, 0, 1);
+    piece(0, 1, count - 1);
+  } else {  // the span runs past the row's end by one: its tail, then the row's first value
+    const int k = nx - first;
+    piece(first, 0, k);
+    piece(0, k, count - k);
+  }
+}
+
 /// The `count` values row[x0 + offset + l], l < count <= nx, of a row periodic in x
 /// (nx values, |offset| <= 1): a pointer into the row, or, where the span wraps around the row's
 /// ends, into `edge` after copying them there.
 inline const float* periodic_span(const float* row, int nx, int x0, int offset, int count, float* edge) {
   const int first = x0 + offset;
   if (first >= 0 && first + count <= nx) return row + first;
-  if (first < 0) {  // first == -1: the row's last value, then its head
-    edge[0] = row[nx - 1];
-    std::memcpy(edge + 1, row, static_cast<std::size_t>(count - 1) * sizeof(float));
-  } else {  // the span runs past the row's end by one: its tail, then the row's first value
-    const int k = nx - first;
-    std::memcpy(edge, row + first, static_cast<std::size_t>(k) * sizeof(float));
-    std::memcpy(edge + k, row, static_cast<std::size_t>(count - k) * sizeof(float));
-  }
+  periodic_pieces(nx, first, count, [&](int src, int dst, int n) {
+    std::memcpy(edge + dst, row + src, static_cast<std::size_t>(n) * sizeof(float));
+  });
   return edge;
 }
 

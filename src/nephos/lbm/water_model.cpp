@@ -167,18 +167,8 @@ inline const float* pulled(const RowSourcesOf<float>& rs, int i, int x0, int cou
 inline const float* pulled(const RowSourcesOf<std::uint16_t>& rs, int i, int x0, int count, float* buf) {
   const auto iu = static_cast<std::size_t>(i);
   const std::uint16_t* row = rs.row[iu];
-  const int nx = rs.nx, first = x0 - rs.shift[iu];
-  constexpr float s = 1.0f / fp16_scale;
-  if (first >= 0 && first + count <= nx) {
-    halves_to_floats(row + first, buf, count, s);
-  } else if (first < 0) {  // first == -1: the row's last value, then its head
-    halves_to_floats(row + nx - 1, buf, 1, s);
-    halves_to_floats(row, buf + 1, count - 1, s);
-  } else {  // one past the row's end: its tail, then its first value
-    const int k = nx - first;
-    halves_to_floats(row + first, buf, k, s);
-    halves_to_floats(row, buf + k, count - k, s);
-  }
+  periodic_pieces(rs.nx, x0 - rs.shift[iu], count,
+                  [&](int src, int dst, int n) { halves_to_floats(row + src, buf + dst, n, 1.0f / fp16_scale); });
   return buf;
 }
 
