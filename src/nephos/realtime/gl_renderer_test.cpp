@@ -110,6 +110,38 @@ TEST(SpriteRendererGl, ImpostorsHoldTheSpritesBeyondTheRingNotWholeClouds) {
   EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());  // ring off: every sprite
 }
 
+TEST(SpriteRendererGl, CrossfadeDrawsTheSpritesNotHeldByBothSets) {
+  // After the camera moves past the 15 % threshold, the new set is rendered one sector per
+  // frame (frames 1-8) while the old one alone stands for its sprites; then the two crossfade
+  // and a sprite is drawn as a sprite unless both sets hold it. Counted from the geometry of the
+  // two ring centres with the per-sprite rule.
+  const glm::dvec3 eye0{0, 0, 2400}, eye1{1300, 0, 2400};  // 1300 m > 15 % of 8 km
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 9, eye0);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  ImpostorRing ring;
+  std::size_t not_front = 0, not_both = 0;
+  for (const SpriteCloud& c : field.clouds())
+    for (const Sprite& s : c.sprites) {
+      const glm::dvec3 p = c.centre + glm::dvec3(s.offset);
+      const double r = 0.5 * std::sqrt(2.0) * s.size_m;
+      const bool front = ring.in_impostor(p, r, eye0), back = ring.in_impostor(p, r, eye1);
+      not_front += !front;
+      not_both += !(front && back);
+    }
+  ASSERT_GT(not_both, not_front);  // the sets differ
+  SpriteRenderer renderer(64, 48, 9);
+  EXPECT_EQ(renderer.draw(field, Camera{eye0, {1, 0, 0}, {0, 0, 1}, 60}, sun, true, true).impostor_updates, 8);
+  const Camera moved{eye1, {1, 0, 0}, {0, 0, 1}, 60};
+  for (int f = 1; f <= 8; ++f) {  // the new set, a sector per frame
+    const FrameStats st = renderer.draw(field, moved, sun, true, true);
+    EXPECT_EQ(st.impostor_updates, 1) << "frame " << f;
+    EXPECT_EQ(st.sprites, not_front) << "frame " << f;
+  }
+  const FrameStats fade = renderer.draw(field, moved, sun, true, true);  // first crossfade frame
+  EXPECT_EQ(fade.impostor_updates, 0);
+  EXPECT_EQ(fade.sprites, not_both);
+}
+
 TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
   // An altostratus sheet is drawn around the camera, but its pattern must not travel with the
   // aircraft: moving the camera by one texture tile (3 km) gives the same frame (the tiling is
