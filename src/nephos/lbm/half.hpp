@@ -71,6 +71,24 @@ inline void halves_to_floats(const std::uint16_t* src, float* out, int n, float 
   for (; l < n; ++l) out[l] = half_to_float(src[l]) * scale;
 }
 
+/// dst[l] = half(src[l] * scale) for l < n, with ordinary stores (for values read again soon:
+/// MPI halo rows, checkpoints).
+inline void floats_to_halves(std::uint16_t* dst, const float* src, int n, float scale) {
+  int l = 0;
+#if defined(__AVX512F__)
+  for (; l + 16 <= n; l += 16)
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + l),
+                        _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src + l), _mm512_set1_ps(scale)),
+                                        _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+#elif defined(__F16C__)
+  for (; l + 8 <= n; l += 8)
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + l),
+                     _mm256_cvtps_ph(_mm256_mul_ps(_mm256_loadu_ps(src + l), _mm256_set1_ps(scale)),
+                                     _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+#endif
+  for (; l < n; ++l) dst[l] = float_to_half(src[l] * scale);
+}
+
 /// dst[l] = half(src[l] * scale) for l < n, with streaming (non-temporal) stores where dst is
 /// 32-byte aligned and n a multiple of 16; call stream_fence() before other threads read dst.
 inline void floats_to_halves_streaming(std::uint16_t* dst, const float* src, int n, float scale) {

@@ -66,6 +66,9 @@ TEST(Half, VectorPathsMatchThePortableOne) {
   floats_to_halves_streaming(dst, src.data(), n, 1.0f);
   stream_fence();
   for (int k = 0; k < n; ++k) ASSERT_EQ(dst[k], float_to_half(src[static_cast<std::size_t>(k)])) << src[k];
+  std::vector<std::uint16_t> plain(static_cast<std::size_t>(n) + 1);  // ordinary stores, unaligned
+  floats_to_halves(plain.data() + 1, src.data(), n, 1.0f);
+  for (int k = 0; k < n; ++k) ASSERT_EQ(plain[static_cast<std::size_t>(k) + 1], dst[k]) << src[k];
 }
 
 TEST(VectorMath, ExpMatchesLibm) {

@@ -8,6 +8,7 @@
 // populations are small (|f_i - w_i rho_ref| ~ 1e-4 .. 1e-1) and the scale keeps them out of
 // FP16's subnormal range (below 6.1e-5) while leaving room up to |f_i - w_i rho_ref| < 64. A
 // power of two, so scaling itself never rounds. See docs/lbm.md for the error this costs.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -56,13 +57,16 @@ class Populations {
   /// out[j] = get(k + j) for j < n.
   void read(std::size_t k, std::size_t n, float* out) const {
     if (storage_ == Storage::fp32)
-      for (std::size_t j = 0; j < n; ++j) out[j] = f32_[k + j];
+      std::copy_n(f32_.data() + k, n, out);
     else
       halves_to_floats(f16_.data() + k, out, static_cast<int>(n), 1.0f / fp16_scale);
   }
   /// set(k + j, in[j]) for j < n.
   void write(std::size_t k, std::size_t n, const float* in) {
-    for (std::size_t j = 0; j < n; ++j) set(k + j, in[j]);
+    if (storage_ == Storage::fp32)
+      std::copy_n(in, n, f32_.data() + k);
+    else
+      floats_to_halves(f16_.data() + k, in, static_cast<int>(n), fp16_scale);
   }
 
   /// The stored values as T: float (FP32 storage) or std::uint16_t (FP16 bits).
