@@ -31,9 +31,10 @@ int run_particles_bench(const ParticlesBenchOptions& o, std::uint64_t seed) {
   realtime::SpriteRenderer renderer(o.width, o.height, seed);
   std::cout << fmt::format(
       "nephos bench particles: embedded GFS sample, region 30N-65N 50W-10E refined to {} x {} columns, {} threads, "
-      "{}x{} frames on the headless OpenGL ES renderer (software rasteriser), median of {} frames\n"
+      "{}x{} frames on headless {} on {}, median of {} frames\n"
       "(seed 003 publishes no timings to compare with)\n",
-      pw.grid.cols, pw.grid.rows, thread_count(), o.width, o.height, o.frames);
+      pw.grid.cols, pw.grid.rows, thread_count(), o.width, o.height, renderer.gl_version(), renderer.gl_renderer(),
+      o.frames);
   std::cout << fmt::format("{:>9} {:>4} {:>14} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9}\n", "particles", "LOD",
                            "generated/s", "drawn", "frame ms", "motion", "lod", "light", "sort", "draw", "frames/s");
   for (std::size_t n : {std::size_t{100000}, std::size_t{1000000}}) {

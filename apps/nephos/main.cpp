@@ -492,7 +492,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   realtime::Camera cam{{0, 0, alt_m}, {1, 0, -0.05}, {0, 0, 1}, 60};
   realtime::CloudField field(recipe, g.seed, cam.position);
   realtime::SpriteRenderer renderer(width, height, g.seed, realtime::gl_api_from_name(o.gl));
-  spdlog::info("OpenGL: {}", renderer.gl_version());
+  spdlog::info("OpenGL: {} on {}", renderer.gl_version(), renderer.gl_renderer());
   renderer.set_impostor_radius(o.impostor_radius_km * 1000);
   renderer.set_single_sprite_distance(o.lod_km * 1000);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
@@ -523,8 +523,8 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   table.close();
   csv.commit();
   std::cout << fmt::format(
-      "fly: {} frames of {}x{}, {} sprite clouds, mean frame {:.1f} ms (software rasteriser, glFinish)\n", o.frames,
-      width, height, field.clouds().size(), total_ms / o.frames);
+      "fly: {} frames of {}x{}, {} sprite clouds, mean frame {:.1f} ms (CPU time around glFinish; {})\n", o.frames,
+      width, height, field.clouds().size(), total_ms / o.frames, renderer.gl_renderer());
   return 0;
 }
 

@@ -108,8 +108,8 @@ int run_view(const ViewOptions& o) {
   realtime::SpriteRenderer renderer(realtime::SpriteRenderer::UseCurrentContext{}, o.width, o.height, o.seed, o.api);
   renderer.set_impostor_radius(o.impostor_radius_m);
   renderer.set_single_sprite_distance(o.single_sprite_distance_m);
-  spdlog::info("OpenGL: {}; keys: arrows or A/D turn and climb, W/S speed, I impostors, Q/Esc quit; drag to look",
-               renderer.gl_version());
+  spdlog::info("OpenGL: {} on {}; keys: arrows or A/D turn and climb, W/S speed, I impostors, Q/Esc quit; drag to look",
+               renderer.gl_version(), renderer.gl_renderer());
   realtime::FlightControls flight;
   flight.speed_m_s = o.speed_m_s;
   glm::dvec3 position{0, 0, o.altitude_m};

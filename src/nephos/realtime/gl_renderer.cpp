@@ -785,4 +785,9 @@ std::string SpriteRenderer::gl_version() const {
   return v ? v : "";
 }
 
+std::string SpriteRenderer::gl_renderer() const {
+  const auto* v = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  return v ? v : "";
+}
+
 }  // namespace nephos::realtime

@@ -86,6 +86,9 @@ class SpriteRenderer {
   GlApi api() const { return api_; }
   /// The GL_VERSION string of the context.
   std::string gl_version() const;
+  /// The GL_RENDERER string of the context: what draws ("llvmpipe ..." for Mesa's software
+  /// rasteriser, the GPU's name otherwise).
+  std::string gl_renderer() const;
   /// RGBA8 pixels of the last frame, rows from the top.
   std::vector<std::uint8_t> read_pixels() const;
   int width() const { return w_; }

@@ -9,6 +9,15 @@
 
 namespace nephos::realtime {
 
+TEST(SpriteRendererGl, NamesItsContext) {
+  // What draws is reported (benchmarks print it beside their figures): on the CI machine
+  // Mesa's llvmpipe, on a GPU its driver's name; the version is an OpenGL ES 3.x or desktop
+  // 3.3+ context as asked for.
+  SpriteRenderer es(16, 16, 1, GlApi::gles30);
+  EXPECT_FALSE(es.gl_renderer().empty());
+  EXPECT_NE(es.gl_version().find("OpenGL ES 3."), std::string::npos) << es.gl_version();
+}
+
 TEST(SpriteRendererGl, FacingLocksWithinHalfASpritesRadiusAndReleasesOutside) {
   // Seed 004 (MSFS 2004): a sprite whose centre the camera is within half its radius of stops
   // turning to face the camera. Headless EGL (Mesa llvmpipe), 64 x 64 frames.
