@@ -146,6 +146,14 @@ TEST_P(WaterModelStorage, StableDeterministicAndResumable) {
   EXPECT_EQ(c.steps_done(), 10);
   EXPECT_EQ(c.params().storage, GetParam());
   for (int t = 0; t < 10; ++t) c.step();
+  // More threads than 16-row blocks: 3 and 5 threads cut the 24 rows into blocks of 8 and 4.
+  for (const int threads : {3, 5}) {
+    set_threads(threads);
+    WaterModel d = make();
+    for (int t = 0; t < 20; ++t) d.step();
+    const auto va = a.vapour(), vd = d.vapour();
+    EXPECT_EQ(std::memcmp(va.data(), vd.data(), va.size() * sizeof(float)), 0) << threads << " threads";
+  }
   set_threads(0);
   const auto va = a.vapour(), vc = c.vapour();
   EXPECT_EQ(std::memcmp(va.data(), vc.data(), va.size() * sizeof(float)), 0);  // 1 vs 2 threads, resumed

@@ -10,6 +10,7 @@
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
+#include "nephos/core/parallel.hpp"
 #include "nephos/lbm/vector_math.hpp"
 
 namespace nephos::lbm {
@@ -424,9 +425,12 @@ void WaterModel::fused_step_impl() {
   // exactly the inputs of the two-pass order (bit-identical to step_stage(), whatever the
   // thread count). Pass 2 pulls the populations pass 1 read one plane before: with 16-row
   // blocks that is ~0.3 MiB ago, still in the core's L2, so a step reads the state from memory
-  // once and writes it once (608 B per cell for both components). Walls in z only.
-  constexpr int block = 16;
+  // once and writes it once (608 B per cell for both components). Walls in z only. With more
+  // threads than 16-row blocks (128 rows on more than 8 cores) the blocks shrink, to no fewer
+  // than 4 rows, so that every thread has one: each block recomputes two halo rows of
+  // densities, and the results do not depend on the blocking.
   const int nz = g_.nz, ny = g_.ny, nx = g_.nx;
+  const int block = std::clamp(ny / std::max(thread_count(), 1), 4, 16);
   const int blocks = (ny + block - 1) / block;
   const std::size_t ring = static_cast<std::size_t>(3) * (block + 2) * static_cast<std::size_t>(nx);
 #pragma omp parallel
