@@ -71,49 +71,52 @@ inline void halves_to_floats(const std::uint16_t* src, float* out, int n, float 
   for (; l < n; ++l) out[l] = half_to_float(src[l]) * scale;
 }
 
+// The vector conversion both writers below use: 16 (AVX-512) or 8 (F16C) floats from src,
+// times scale, to halves rounded to nearest even.
+#if defined(__AVX512F__)
+inline __m256i scaled_halves16(const float* src, __m512 scale) {
+  return _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src), scale), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+}
+#elif defined(__F16C__)
+inline __m128i scaled_halves8(const float* src, __m256 scale) {
+  return _mm256_cvtps_ph(_mm256_mul_ps(_mm256_loadu_ps(src), scale), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+}
+#endif
+
 /// dst[l] = half(src[l] * scale) for l < n, with ordinary stores (for values read again soon:
 /// MPI halo rows, checkpoints).
 inline void floats_to_halves(std::uint16_t* dst, const float* src, int n, float scale) {
   int l = 0;
 #if defined(__AVX512F__)
   for (; l + 16 <= n; l += 16)
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + l),
-                        _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src + l), _mm512_set1_ps(scale)),
-                                        _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + l), scaled_halves16(src + l, _mm512_set1_ps(scale)));
 #elif defined(__F16C__)
   for (; l + 8 <= n; l += 8)
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + l),
-                     _mm256_cvtps_ph(_mm256_mul_ps(_mm256_loadu_ps(src + l), _mm256_set1_ps(scale)),
-                                     _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + l), scaled_halves8(src + l, _mm256_set1_ps(scale)));
 #endif
   for (; l < n; ++l) dst[l] = float_to_half(src[l] * scale);
 }
 
 /// dst[l] = half(src[l] * scale) for l < n, with streaming (non-temporal) stores where dst is
-/// 32-byte aligned and n a multiple of 16; call stream_fence() before other threads read dst.
+/// 32-byte aligned and n a multiple of 16 (the rest with ordinary ones); call stream_fence()
+/// before other threads read dst.
 inline void floats_to_halves_streaming(std::uint16_t* dst, const float* src, int n, float scale) {
   int l = 0;
 #if defined(__AVX512F__)
-  constexpr int round = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
   const __m512 s = _mm512_set1_ps(scale);
   if ((reinterpret_cast<std::uintptr_t>(dst) & 63) == 0)  // whole 64-byte lines, one store each
-    for (; l + 32 <= n; l += 32) {
-      const __m256i lo = _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src + l), s), round);
-      const __m256i hi = _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src + l + 16), s), round);
-      _mm512_stream_si512(reinterpret_cast<__m512i*>(dst + l), _mm512_inserti64x4(_mm512_castsi256_si512(lo), hi, 1));
-    }
+    for (; l + 32 <= n; l += 32)
+      _mm512_stream_si512(
+          reinterpret_cast<__m512i*>(dst + l),
+          _mm512_inserti64x4(_mm512_castsi256_si512(scaled_halves16(src + l, s)), scaled_halves16(src + l + 16, s), 1));
   if ((reinterpret_cast<std::uintptr_t>(dst + l) & 31) == 0)
-    for (; l + 16 <= n; l += 16)
-      _mm256_stream_si256(reinterpret_cast<__m256i*>(dst + l),
-                          _mm512_cvtps_ph(_mm512_mul_ps(_mm512_loadu_ps(src + l), s), round));
+    for (; l + 16 <= n; l += 16) _mm256_stream_si256(reinterpret_cast<__m256i*>(dst + l), scaled_halves16(src + l, s));
 #elif defined(__F16C__)
   if ((reinterpret_cast<std::uintptr_t>(dst) & 15) == 0)
     for (; l + 8 <= n; l += 8)
-      _mm_stream_si128(reinterpret_cast<__m128i*>(dst + l),
-                       _mm256_cvtps_ph(_mm256_mul_ps(_mm256_loadu_ps(src + l), _mm256_set1_ps(scale)),
-                                       _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+      _mm_stream_si128(reinterpret_cast<__m128i*>(dst + l), scaled_halves8(src + l, _mm256_set1_ps(scale)));
 #endif
-  for (; l < n; ++l) dst[l] = float_to_half(src[l] * scale);
+  floats_to_halves(dst + l, src + l, n - l, scale);
 }
 
 #pragma GCC diagnostic pop
