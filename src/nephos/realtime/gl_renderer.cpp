@@ -648,18 +648,15 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     bool held = false;  // some of its sprites are in an impostor set
     if (impostors && m.ring.valid) {
       held = captured_sprites(m.captured[m.front], c, in_front);
-      if (fading_sets) {
-        held = captured_sprites(m.captured[back], c, in_back) || held;
-      } else {
-        in_back.assign(c.sprites.size(), 0);
-      }
+      if (fading_sets) held = captured_sprites(m.captured[back], c, in_back) || held;
     }
     // Opacity of sprite k drawn as a sprite: zero while an impostor set shows it alone; during a
     // crossfade a sprite in only one set fades against that set.
     auto alpha_of = [&](std::size_t k) {
       if (!held) return double{c.opacity};
-      const bool f = in_front[k], b = in_back[k];
+      const bool f = in_front[k];
       if (!fading_sets) return f ? 0.0 : double{c.opacity};
+      const bool b = in_back[k];
       if (f && b) return 0.0;
       return c.opacity * (f ? back_weight : 1.0) * (b ? 1 - back_weight : 1.0);
     };
