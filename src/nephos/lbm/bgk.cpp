@@ -10,7 +10,7 @@ BgkSolver::BgkSolver(Grid3 grid, double relaxation_time, ZBoundary zb, std::arra
                      double rest_fraction)
     : g_(grid), xi_(relaxation_time), zb_(zb), force_(body_force), d_(rest_fraction) {
   if (!(xi_ > 0.5)) throw ValueError("relaxation time must exceed 1/2 for stability", {.key = "xi"});
-  a_.resize(d3q19::q * g_.cells());
+  a_.resize(g_.population_size(d3q19::q));
   b_.resize(a_.size());
 }
 
@@ -18,10 +18,10 @@ void BgkSolver::initialise(double rho) {
   float feq[d3q19::q];
   d3q19::equilibrium_shifted<float>(static_cast<float>(rho - 1.0), static_cast<float>(rho), 0, 0, 0,
                                     static_cast<float>(d_), feq);
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   for (int i = 0; i < d3q19::q; ++i)
-    std::fill(a_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(i) * n),
-              a_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(i + 1) * n), feq[i]);
+    std::fill_n(a_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(i) * stride),
+                static_cast<std::ptrdiff_t>(g_.cells()), feq[i]);
 }
 
 namespace {
@@ -64,7 +64,7 @@ inline void collide_chunk(const float* const* src, float* post, int count, const
 }  // namespace
 
 void BgkSolver::step() {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx;
   const float shift = static_cast<float>(xi_);  // u_eq = u + xi F / rho (eq. 10, tau = 1)
   const BgkConstants k{static_cast<float>(1.0 / xi_), static_cast<float>(d_), shift * static_cast<float>(force_[0]),
@@ -81,12 +81,14 @@ void BgkSolver::step() {
         for (int x0 = 0; x0 < nx; x0 += chunk) {
           const int count = std::min(chunk, nx - x0);
           const float* src[d3q19::q];
-          for (int i = 0; i < d3q19::q; ++i)
+          for (int i = 0; i < d3q19::q; ++i) {
+            __builtin_prefetch(rs.row[static_cast<std::size_t>(i)] + x0 + 2 * nx);
             src[i] = periodic_span(rs.row[static_cast<std::size_t>(i)], nx, x0, -rs.shift[static_cast<std::size_t>(i)],
                                    count, edge + i * chunk);
+          }
           collide_chunk(src, post, count, k);
           for (int i = 0; i < d3q19::q; ++i)
-            store_streaming(out + static_cast<std::size_t>(i) * n + x0, post + i * chunk,
+            store_streaming(out + static_cast<std::size_t>(i) * stride + x0, post + i * chunk,
                             static_cast<std::size_t>(count));
         }
       }
@@ -97,7 +99,7 @@ void BgkSolver::step() {
 
 double BgkSolver::density(std::size_t cell) const {
   double rho = 1.0;  // rho_ref
-  for (int i = 0; i < d3q19::q; ++i) rho += a_[static_cast<std::size_t>(i) * g_.cells() + cell];
+  for (int i = 0; i < d3q19::q; ++i) rho += a_[static_cast<std::size_t>(i) * g_.direction_stride() + cell];
   return rho;
 }
 
@@ -106,7 +108,7 @@ std::array<double, 3> BgkSolver::velocity(std::size_t cell) const {
   // includes the full force impulse, so the cross-collision average (eq. 11) is j - F/2.
   double j[3] = {0, 0, 0};
   for (int i = 0; i < d3q19::q; ++i) {
-    const double f = a_[static_cast<std::size_t>(i) * g_.cells() + cell];
+    const double f = a_[static_cast<std::size_t>(i) * g_.direction_stride() + cell];
     j[0] += f * d3q19::cx[static_cast<std::size_t>(i)];
     j[1] += f * d3q19::cy[static_cast<std::size_t>(i)];
     j[2] += f * d3q19::cz[static_cast<std::size_t>(i)];
@@ -117,7 +119,7 @@ std::array<double, 3> BgkSolver::velocity(std::size_t cell) const {
 
 double BgkSolver::total_mass() const {
   double m = static_cast<double>(g_.cells());  // rho_ref per cell
-  for (float v : a_) m += v;
+  for (float v : a_) m += v;                   // the padding between directions stays zero
   return m;
 }
 

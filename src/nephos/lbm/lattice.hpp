@@ -1,8 +1,9 @@
 #pragma once
 // Lattice geometry and population storage shared by the lattice-Boltzmann solvers.
 //
-// Layout (after FluidX3D's structure of arrays): population i of cell n at f[i * cells + n],
-// cells ordered x fastest, then y, then z (z is up). Two copies (A/B) for pull streaming: a
+// Layout (after FluidX3D's structure of arrays): population i of cell n at f[i * stride + n]
+// (stride = Grid3::direction_stride(), the cell count padded; see there), cells ordered x
+// fastest, then y, then z (z is up). Two copies (A/B) for pull streaming: a
 // step reads A at x - c_i and writes B at x, so each population is read once and written once
 // per cell update: 19 * 4 B * 2 = 152 bytes per cell per component in FP32.
 // Populations are stored shifted by their rest value w_i rho_ref (d3q19::equilibrium_shifted).
@@ -27,6 +28,16 @@ struct Grid3 {
   int nx = 0, ny = 0, nz = 0;
   std::size_t cells() const { return static_cast<std::size_t>(nx) * ny * nz; }
   std::size_t index(int x, int y, int z) const { return (static_cast<std::size_t>(z) * ny + y) * nx + x; }
+  /// Elements from one direction's populations to the next in a direction-major array: the
+  /// cell count rounded up to 2048, plus 32. Without the padding every direction of a
+  /// power-of-two lattice starts at the same offset modulo 4 KiB, so the 19 pulled rows and
+  /// the 19 written rows of a step all fall into the same L1 and L2 cache sets and evict each
+  /// other (measured on an AMD Zen 3: a 19-direction copy ran at 7 GB/s instead of 47). With
+  /// it, direction i starts i x 128 B (FP32) or i x 64 B (FP16) past such a boundary: distinct
+  /// cache lines for all 19 directions, in sets 64 KiB apart at most.
+  std::size_t direction_stride() const { return (cells() + 2047) / 2048 * 2048 + 32; }
+  /// Elements of a direction-major array of q directions (padding included, left zero).
+  std::size_t population_size(int q) const { return static_cast<std::size_t>(q) * direction_stride(); }
   bool operator==(const Grid3&) const = default;
   /// "NXxNYxNZ"
   std::string describe() const;
@@ -53,12 +64,12 @@ struct RowSourcesOf {
 using RowSources = RowSourcesOf<float>;
 
 /// The pull-streaming sources of row (y, z) for populations stored in `f` (direction-major,
-/// f[i * cells + cell]).
+/// f[i * g.direction_stride() + cell]).
 template <class T>
 RowSourcesOf<T> row_sources(const Grid3& g, const T* f, int y, int z, ZBoundary zb) {
   RowSourcesOf<T> r;
   r.nx = g.nx;
-  const std::size_t cells = g.cells();
+  const std::size_t stride = g.direction_stride();
   for (int i = 0; i < d3q19::q; ++i) {
     const auto iu = static_cast<std::size_t>(i);
     // y in [0, ny), |c| <= 1: one conditional wrap (no integer division on this per-row path).
@@ -67,11 +78,11 @@ RowSourcesOf<T> row_sources(const Grid3& g, const T* f, int y, int z, ZBoundary 
     if (zb == ZBoundary::periodic) {
       sz = sz < 0 ? sz + g.nz : (sz >= g.nz ? sz - g.nz : sz);
     } else if (sz < 0 || sz >= g.nz) {  // halfway bounce-back at the wall
-      r.row[iu] = f + static_cast<std::size_t>(d3q19::opposite[iu]) * cells + g.index(0, y, z);
+      r.row[iu] = f + static_cast<std::size_t>(d3q19::opposite[iu]) * stride + g.index(0, y, z);
       r.shift[iu] = 0;
       continue;
     }
-    r.row[iu] = f + iu * cells + g.index(0, sy, sz);
+    r.row[iu] = f + iu * stride + g.index(0, sy, sz);
     r.shift[iu] = d3q19::cx[iu];
   }
   return r;

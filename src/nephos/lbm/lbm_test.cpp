@@ -52,6 +52,24 @@ TEST(D3Q19, EquilibriumMomentsForAnyRestFraction) {
   }
 }
 
+TEST(Lattice, DirectionsStartOnDistinctCacheLines) {
+  // The padded stride puts the first cell of each of the 19 directions on a different 64-byte
+  // line modulo 4 KiB (the L1 set period of 64 sets x 64 B) in FP32 and FP16 storage, for
+  // power-of-two lattices (where the unpadded layout puts them all on the same line) and
+  // others; and never overlaps two directions.
+  for (const Grid3 g : {Grid3{128, 128, 128}, Grid3{256, 128, 128}, Grid3{64, 64, 64}, Grid3{100, 37, 19}}) {
+    const std::size_t stride = g.direction_stride();
+    EXPECT_GE(stride, g.cells());
+    EXPECT_EQ(g.population_size(d3q19::q), d3q19::q * stride);
+    for (const std::size_t bytes : {std::size_t{4}, std::size_t{2}}) {
+      std::vector<std::size_t> lines;
+      for (std::size_t i = 0; i < d3q19::q; ++i) lines.push_back(i * stride * bytes % 4096 / 64);
+      std::sort(lines.begin(), lines.end());
+      EXPECT_EQ(std::adjacent_find(lines.begin(), lines.end()), lines.end()) << g.describe() << " " << bytes << " B";
+    }
+  }
+}
+
 TEST(Bgk, PoiseuilleChannel) {
   // Body force F along x between no-slip walls at z = 0 and z = H (halfway bounce-back):
   // u(z) = F z (H - z) / (2 rho nu), nu = (xi - 1/2)/3. Issue target: L2 error < 5 %.

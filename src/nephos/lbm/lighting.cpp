@@ -98,7 +98,7 @@ LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingP
     sigma_a_[c] = static_cast<float>(p_.sigma_a_per_density * rho);
     if (sigma_s_[c] + sigma_a_[c] > 1.0f) throw ValueError("sigma_s + sigma_a must not exceed 1 per lattice step");
   }
-  i_.assign(static_cast<std::size_t>(light_dirs) * n, 0.0f);
+  i_.assign(g_.population_size(light_dirs), 0.0f);  // padding between directions stays zero
   next_.assign(i_.size(), 0.0f);
   if (!p_.periodic) {
     // Light travels along -(direction towards the sun); inject along the three lattice
@@ -122,19 +122,19 @@ LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingP
 }
 
 void LightingSolver::add_pulse(std::size_t cell, double amount) {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   for (int k = 0; k < light_dirs; ++k)
-    i_[static_cast<std::size_t>(k) * n + cell] += static_cast<float>(amount * (k < 6 ? 1.0 / 12.0 : 1.0 / 24.0));
+    i_[static_cast<std::size_t>(k) * stride + cell] += static_cast<float>(amount * (k < 6 ? 1.0 / 12.0 : 1.0 / 24.0));
 }
 
 void LightingSolver::add_beam(std::size_t cell, int dir, double amount) {
-  i_[static_cast<std::size_t>(dir - 1) * g_.cells() + cell] += static_cast<float>(amount);
+  i_[static_cast<std::size_t>(dir - 1) * g_.direction_stride() + cell] += static_cast<float>(amount);
 }
 
 double LightingSolver::total_in_direction(int dir) const {
   double s = 0;
-  const std::size_t n = g_.cells();
-  for (std::size_t c = 0; c < n; ++c) s += i_[static_cast<std::size_t>(dir - 1) * n + c];
+  const std::size_t n = g_.cells(), stride = g_.direction_stride();
+  for (std::size_t c = 0; c < n; ++c) s += i_[static_cast<std::size_t>(dir - 1) * stride + c];
   return s;
 }
 
@@ -145,10 +145,10 @@ double LightingSolver::total() const {
 }
 
 std::vector<float> LightingSolver::light() const {
-  const std::size_t n = g_.cells();
+  const std::size_t n = g_.cells(), stride = g_.direction_stride();
   std::vector<float> out(n, 0.0f);
   for (int k = 0; k < light_dirs; ++k)
-    for (std::size_t c = 0; c < n; ++c) out[c] += i_[static_cast<std::size_t>(k) * n + c];
+    for (std::size_t c = 0; c < n; ++c) out[c] += i_[static_cast<std::size_t>(k) * stride + c];
   return out;
 }
 
@@ -161,7 +161,7 @@ double LightingSolver::step() {
   // Open boundaries: photons pushed out of the box are counted as outflow; the cells they
   // leave empty (the x edge of a shifted row, and whole rows whose source lies outside) receive
   // the sunlight injected along that direction.
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx, ny = g_.ny, nz = g_.nz;
   const bool periodic = p_.periodic;
   std::array<float, light_dirs> inject{};
@@ -182,7 +182,7 @@ double LightingSolver::step() {
         double absorbed = 0, inflow = 0, outflow = 0;
         const float* ss = sigma_s_.data() + base;
         const float* sa = sigma_a_.data() + base;
-        auto in = [&](int k) { return i_.data() + static_cast<std::size_t>(k) * n + base; };
+        auto in = [&](int k) { return i_.data() + static_cast<std::size_t>(k) * stride + base; };
         // Collision.
         for (int x = 0; x < nx; ++x) sum[x] = 0;
         for (int k = 0; k < light_dirs; ++k) {
@@ -230,7 +230,7 @@ double LightingSolver::step() {
             if (!periodic) outflow += pk[0], inflow += inj;
             row = shifted.data();
           }
-          store_streaming(next_.data() + static_cast<std::size_t>(k) * n + g_.index(0, dy, dz), row, nxu);
+          store_streaming(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, dy, dz), row, nxu);
         }
         auto& rb =
             row_balance[static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)];
@@ -246,7 +246,7 @@ double LightingSolver::step() {
             const int sy = y - d3q19::cy[ku], sz = z - d3q19::cz[ku];
             if (sy >= 0 && sy < ny && sz >= 0 && sz < nz) continue;
             const float inj = inject[static_cast<std::size_t>(k)];
-            std::fill_n(next_.data() + static_cast<std::size_t>(k) * n + g_.index(0, y, z), nx, inj);
+            std::fill_n(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, y, z), nx, inj);
             row_balance[static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)][1] +=
                 static_cast<double>(inj) * nx;
           }

@@ -1,6 +1,7 @@
 #pragma once
 // The populations of one lattice-Boltzmann component (q directions x cells, direction-major:
-// population i of cell n at [i * cells + n]) in FP32 or, optionally, FP16 storage.
+// population i of cell n at [i * Grid3::direction_stride() + n]) in FP32 or, optionally, FP16
+// storage.
 //
 // FP16 storage keeps the arithmetic in FP32 and only stores halves: 2 instead of 4 bytes per
 // population, so a streaming step moves half the bytes. The stored values are the populations

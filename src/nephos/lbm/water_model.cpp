@@ -71,15 +71,15 @@ WaterModel::WaterModel(Grid3 global, WaterModelParams params, int y_begin, int y
 WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(grid), p_(params) {
   const std::size_t n = g_.cells();
   for (int c = 0; c < 2; ++c) {
-    f_[c] = Populations(p_.storage, d3q19::q * n);
-    next_[c] = Populations(p_.storage, d3q19::q * n);
+    f_[c] = Populations(p_.storage, g_.population_size(d3q19::q));
+    next_[c] = Populations(p_.storage, g_.population_size(d3q19::q));
     rho_[c].assign(n, 0.0f);
   }
   psi1_.assign(n, 0.0f);
 }
 
 void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const float d = static_cast<float>(p_.rest_fraction);
 #pragma omp parallel for schedule(static)
   for (int z = 0; z < g_.nz; ++z)
@@ -111,25 +111,25 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
         float feq[d3q19::q];
         d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0,
                                           0, 0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+        for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
         d3q19::equilibrium_shifted<float>(static_cast<float>(temp - reference(p_, 1)), static_cast<float>(temp), 0, 0,
                                           0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+        for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
       }
   step_ = 0;
 }
 
 void WaterModel::initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed) {
-  const std::size_t n = g_.cells();
+  const std::size_t n = g_.cells(), stride = g_.direction_stride();
   const float d = static_cast<float>(p_.rest_fraction);
   for (std::size_t cell = 0; cell < n; ++cell) {
     const double v = vapour + perturbation * (2 * uniform01(seed, 0x9e7, cell) - 1);
     float feq[d3q19::q];
     d3q19::equilibrium_shifted<float>(static_cast<float>(v - reference(p_, 0)), static_cast<float>(v), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+    for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
     d3q19::equilibrium_shifted<float>(static_cast<float>(temperature - reference(p_, 1)),
                                       static_cast<float>(temperature), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+    for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
   }
   step_ = 0;
 }
@@ -318,7 +318,7 @@ template <class T>
 void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows) {
   // Pass 2 of row (y, z), one chunk of cells at a time (collide_chunk): pull the populations
   // of the current state again, collide, and write the next state with streaming stores.
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx;
   const WaterConstants k{{static_cast<float>(p_.xi_vapour), static_cast<float>(p_.xi_temperature)},
                          static_cast<float>(p_.rest_fraction),
@@ -374,7 +374,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
   // whole rows instead of 38 interleaved lines.
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i)
-      store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * n + base,
+      store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base,
                  scratch.post[c].data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx), nx);
 }
 
@@ -459,7 +459,7 @@ void WaterModel::fused_step_impl() {
 }
 
 void WaterModel::finish_step() {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const double d = p_.rest_fraction;
   // Fixed-temperature, zero-velocity bottom and top layers.
   if (!p_.periodic_z) {
@@ -473,9 +473,9 @@ void WaterModel::finish_step() {
           float feq[d3q19::q];
           d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0,
                                             0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+          for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
           d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * n + cell, feq[i]);
+          for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
         }
     }
   }
@@ -483,7 +483,7 @@ void WaterModel::finish_step() {
 }
 
 std::vector<float> WaterModel::density(int c) const {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   const int own = owned_end() - owned_begin();
   std::vector<float> out(static_cast<std::size_t>(g_.nx) * static_cast<std::size_t>(own) *
                          static_cast<std::size_t>(g_.nz));
@@ -494,7 +494,7 @@ std::vector<float> WaterModel::density(int c) const {
       for (int x = 0; x < g_.nx; ++x) {
         const std::size_t cell = g_.index(x, y + owned_begin(), z);
         float s = ref;
-        for (int i = 0; i < d3q19::q; ++i) s += f_[c].get(static_cast<std::size_t>(i) * n + cell);
+        for (int i = 0; i < d3q19::q; ++i) s += f_[c].get(static_cast<std::size_t>(i) * stride + cell);
         out[(static_cast<std::size_t>(z) * own + static_cast<std::size_t>(y)) * g_.nx + x] = s;
       }
   return out;
@@ -508,14 +508,14 @@ double WaterModel::total(int c) const {
 
 std::vector<float> WaterModel::pack_row(Exchange kind, int y) const {
   std::vector<float> out;
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   if (kind == Exchange::populations) {
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i)
         for (int z = 0; z < g_.nz; ++z) {
           const std::size_t at = out.size();
           out.resize(at + static_cast<std::size_t>(g_.nx));
-          f_[c].read(static_cast<std::size_t>(i) * n + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
+          f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
                      out.data() + at);
         }
   } else {
@@ -529,13 +529,13 @@ std::vector<float> WaterModel::pack_row(Exchange kind, int y) const {
 }
 
 void WaterModel::unpack_row(Exchange kind, int y, const std::vector<float>& data) {
-  const std::size_t n = g_.cells();
+  const std::size_t stride = g_.direction_stride();
   std::size_t k = 0;
   if (kind == Exchange::populations) {
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i)
         for (int z = 0; z < g_.nz; ++z, k += static_cast<std::size_t>(g_.nx))
-          f_[c].write(static_cast<std::size_t>(i) * n + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
+          f_[c].write(static_cast<std::size_t>(i) * stride + g_.index(0, y, z), static_cast<std::size_t>(g_.nx),
                       data.data() + k);
   } else {
     for (std::vector<float>* f : {&rho_[0], &rho_[1], &psi1_})
@@ -603,7 +603,7 @@ WaterModelParams params_from_array(const std::array<double, param_count>& a) {
 }
 
 // The checkpoint file: magic, (nx, ny, nz, step), the parameters, then both components'
-// populations of the whole lattice, direction-major (f[i * cells + cell]).
+// populations of the whole lattice, direction-major and unpadded (f[i * cells + cell]).
 struct CheckpointHeader {
   Grid3 grid;
   long step;
@@ -660,9 +660,9 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
 void WaterModel::save(const std::filesystem::path& path) const {
   if (halo_ != 0)
     throw ValueError("a slab cannot save itself: gather pack_owned() of every slab and call save_gathered()");
-  const std::size_t n = g_.cells();
+  const std::size_t n = g_.cells(), stride = g_.direction_stride();
   write_checkpoint(path, {g_, step_, p_},
-                   [&](int c, int i, float* out) { f_[c].read(static_cast<std::size_t>(i) * n, n, out); });
+                   [&](int c, int i, float* out) { f_[c].read(static_cast<std::size_t>(i) * stride, n, out); });
 }
 
 WaterModel WaterModel::load(const std::filesystem::path& path) {
@@ -670,13 +670,13 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
   const CheckpointHeader h = read_checkpoint_header(is, path);
   WaterModel w(h.grid, h.params);
   w.step_ = h.step;
-  const std::size_t n = h.grid.cells();
+  const std::size_t n = h.grid.cells(), stride = h.grid.direction_stride();
   std::vector<float> values(n);
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i) {
       is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(n * sizeof(float)));
       if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
-      w.f_[c].write(static_cast<std::size_t>(i) * n, n, values.data());
+      w.f_[c].write(static_cast<std::size_t>(i) * stride, n, values.data());
     }
   return w;
 }
@@ -693,7 +693,7 @@ WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin,
   w.step_ = h.step;
   // Read one direction of one component at a time (a whole-lattice plane of populations) and
   // keep the slab's rows: memory stays at one plane beyond the slab.
-  const std::size_t N = h.grid.cells(), n = w.g_.cells();
+  const std::size_t N = h.grid.cells(), stride = w.g_.direction_stride();
   std::vector<float> plane(N);
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i) {
@@ -701,7 +701,7 @@ WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin,
       if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
       for (int z = 0; z < h.grid.nz; ++z)
         for (int y = w.owned_begin(); y < w.owned_end(); ++y)
-          w.f_[c].write(static_cast<std::size_t>(i) * n + w.g_.index(0, y, z), static_cast<std::size_t>(h.grid.nx),
+          w.f_[c].write(static_cast<std::size_t>(i) * stride + w.g_.index(0, y, z), static_cast<std::size_t>(h.grid.nx),
                         plane.data() + h.grid.index(0, w.global_y(y), z));
     }
   return w;
