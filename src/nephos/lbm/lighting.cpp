@@ -118,6 +118,13 @@ LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingP
       if (cosines[static_cast<std::size_t>(k)].first > 0)
         sun_.emplace_back(cosines[static_cast<std::size_t>(k)].second,
                           cosines[static_cast<std::size_t>(k)].first / sum);
+    // Start from the clear-sky solution, the sunlight unattenuated in every cell, instead of
+    // an empty box: the iteration converges to the same steady state from any start, but
+    // from this one only the cloud's shadow and scattered light have yet to settle.
+    const std::size_t stride = g_.direction_stride();
+    for (const auto& [k, w] : sun_)
+      std::fill_n(i_.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(k) * stride),
+                  static_cast<std::ptrdiff_t>(n), static_cast<float>(w));
   }
 }
 
