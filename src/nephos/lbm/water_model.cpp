@@ -231,7 +231,7 @@ struct WaterModel::RowScratch {
 };
 
 namespace {
-// What the collision of one chunk needs, per lane l < count.
+// What the collision of one line of cells needs, per lane l < count.
 struct WaterChunk {
   const float* pop[2][d3q19::q];   // streamed populations of each component
   const float* psi_nb[d3q19::q];   // Psi_1 at x + c_i
@@ -244,12 +244,12 @@ struct WaterConstants {
 
 // Gradients, forces (eq. 25), the common equilibrium velocity (eq. 9), each component's
 // shifted velocity (eq. 10) and the LBGK collision of `count` cells, written per cell and
-// vectorised across the chunk. All in FP32: the populations are shifted by their rest values,
+// vectorised across the line. All in FP32: the populations are shifted by their rest values,
 // so FP32 rounds the deviations, not the densities. Opposite directions go in pairs, which
 // halves the gradient's and the equilibria's arithmetic: on an AVX2 machine (8 lanes, where
 // the collision rather than memory bounds a thread) a step took 9 % less time.
-inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2],
-                          std::size_t stride) {
+inline void collide_line(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2],
+                         std::size_t stride) {
   using namespace d3q19;
   constexpr float w_axis = static_cast<float>(gradient_weight(1)), w_diag = static_cast<float>(gradient_weight(7));
   const auto ea = equilibrium_coefficients<float>(1, k.d), ed = equilibrium_coefficients<float>(7, k.d);
@@ -337,7 +337,7 @@ inline void collide_chunk(const WaterChunk& in, int count, const WaterConstants&
 
 template <class T>
 void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows) {
-  // Pass 2 of row (y, z), one chunk of cells at a time (collide_chunk): pull the populations
+  // Pass 2 of row (y, z), one line of cells at a time (collide_line): pull the populations
   // of the current state again, collide, and write the next state with streaming stores.
   const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx;
@@ -365,32 +365,22 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     psi_row[i] = rows.psi1 + r;
     rho2_row[i] = rows.rho2 + r;
   }
-  const float* pop[2][d3q19::q];
-  const float* psi_nb[d3q19::q];
-  const float* rho2_nb[d3q19::q];
+  WaterChunk in{};
   for (int x0 = 0; x0 < nx; x0 += line) {
     const int count = std::min(line, nx - x0);
     for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i) pop[c][i] = pulled(rs[c], i, x0, count, scratch.pop[c] + i * line);
+      for (int i = 0; i < d3q19::q; ++i) in.pop[c][i] = pulled(rs[c], i, x0, count, scratch.pop[c] + i * line);
     for (int i = 1; i < d3q19::q; ++i) {
       const int cx = d3q19::cx[static_cast<std::size_t>(i)];
-      psi_nb[i] = periodic_span(psi_row[i], nx, x0, cx, count, scratch.edge[0] + i * line);
-      rho2_nb[i] = periodic_span(rho2_row[i], nx, x0, cx, count, scratch.edge[1] + i * line);
+      in.psi_nb[i] = periodic_span(psi_row[i], nx, x0, cx, count, scratch.edge[0] + i * line);
+      in.rho2_nb[i] = periodic_span(rho2_row[i], nx, x0, cx, count, scratch.edge[1] + i * line);
     }
-    for (int l0 = 0; l0 < count; l0 += chunk) {  // the line's chunks, each in vector registers
-      WaterChunk in{};
-      for (int c = 0; c < 2; ++c)
-        for (int i = 0; i < d3q19::q; ++i) in.pop[c][i] = pop[c][i] + l0;
-      for (int i = 1; i < d3q19::q; ++i) {
-        in.psi_nb[i] = psi_nb[i] + l0;
-        in.rho2_nb[i] = rho2_nb[i] + l0;
-      }
-      in.rho1 = rows.rho1 + dbase + x0 + l0;
-      in.rho2 = rows.rho2 + dbase + x0 + l0;
-      in.psi1 = rows.psi1 + dbase + x0 + l0;
-      float* const post[2] = {scratch.post[0].data() + x0 + l0, scratch.post[1].data() + x0 + l0};
-      collide_chunk(in, std::min(chunk, count - l0), k, post, static_cast<std::size_t>(nx));
-    }
+    in.rho1 = rows.rho1 + dbase + x0;
+    in.rho2 = rows.rho2 + dbase + x0;
+    in.psi1 = rows.psi1 + dbase + x0;
+    // The whole line at once: the omp simd loop runs over it in vector-register steps.
+    float* const post[2] = {scratch.post[0].data() + x0, scratch.post[1].data() + x0};
+    collide_line(in, count, k, post, static_cast<std::size_t>(nx));
   }
   // The row's post-collision populations out, one direction row at a time: 19 streams of
   // whole rows instead of 38 interleaved lines.
