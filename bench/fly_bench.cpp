@@ -1,4 +1,5 @@
 #include "fly_bench.hpp"
+#include "machine.hpp"
 
 #include <sys/resource.h>
 
@@ -39,6 +40,7 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
   std::cout << fmt::format(
       "nephos bench fly: {}x{}, {} frames per case, headless {} on {}, impostor ring radius 8 km (MSFS 2004)\n",
       o.width, o.height, o.frames, renderer.gl_version(), renderer.gl_renderer());
+  std::cout << describe_machine() << "\n";
   std::cout << fmt::format("{:<5} {:>6} {:>10} {:>9} {:>10} {:>8} {:>8} {:>8} {:>8} {:>9}\n", "test", "clouds",
                            "clustered", "sort-opt", "impostors", "mean ms", "p50 ms", "p95 ms", "p99 ms", "CPU load");
   double e_mean[2][2] = {}, e_p95[2][2] = {};  // test E, sort-opt: [clustered][impostors]

@@ -1,4 +1,5 @@
 #include "lbm_bench.hpp"
+#include "machine.hpp"
 
 #include <sys/resource.h>
 
@@ -93,7 +94,8 @@ int run_lbm_bench(const LbmBenchOptions& o, std::uint64_t seed) {
           {.key = "--kernels"});
     }
   }
-  std::cout << fmt::format("nephos bench lbm: {}^3 lattice, {} threads, median of {}\n\n", s, thread_count(), o.repeat);
+  std::cout << fmt::format("nephos bench lbm: {}^3 lattice, {} threads, median of {}\n{}\n\n", s, thread_count(),
+                           o.repeat, describe_machine());
   // The roofline and the BGK kernel measured alternately, so that both see the same state of
   // a shared machine's memory system, and compared median to median. (On this project's cloud
   // VM the best of five triads swings between 30 and 56 GB/s from one minute to the next.)

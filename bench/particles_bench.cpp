@@ -1,4 +1,5 @@
 #include "particles_bench.hpp"
+#include "machine.hpp"
 
 #include <fmt/format.h>
 
@@ -35,6 +36,7 @@ int run_particles_bench(const ParticlesBenchOptions& o, std::uint64_t seed) {
       "(seed 003 publishes no timings to compare with)\n",
       pw.grid.cols, pw.grid.rows, thread_count(), o.width, o.height, renderer.gl_version(), renderer.gl_renderer(),
       o.frames);
+  std::cout << describe_machine() << "\n";
   std::cout << fmt::format("{:>9} {:>4} {:>14} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9}\n", "particles", "LOD",
                            "generated/s", "drawn", "frame ms", "motion", "lod", "light", "sort", "draw", "frames/s");
   for (std::size_t n : {std::size_t{100000}, std::size_t{1000000}}) {

@@ -1,4 +1,5 @@
 #include "render_bench.hpp"
+#include "machine.hpp"
 
 #include <sys/resource.h>
 
@@ -66,6 +67,7 @@ int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
       "\nnephos bench render: one {} shell, GEO full disc (geo:-75.2), bands vis+nir+lwir, {} threads, median of "
       "{}{}\n",
       o.type, thread_count(), o.repeat, o.quick ? " [QUICK: images 1/4 size, not comparable]" : "");
+  std::cout << describe_machine() << "\n";
   std::cout << fmt::format("{:>11} {:>10} {:>6} {:>16} {:>22} {:>8}\n", "FPA", "texture", "steps", "nephos ms/shell",
                            "seed GTX 1650 ms/shell", "ratio");
   double peak = 0;
