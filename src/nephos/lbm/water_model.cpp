@@ -232,7 +232,7 @@ struct WaterModel::RowScratch {
 
 namespace {
 // What the collision of one line of cells needs, per lane l < count.
-struct WaterChunk {
+struct WaterLine {
   const float* pop[2][d3q19::q];   // streamed populations of each component
   const float* psi_nb[d3q19::q];   // Psi_1 at x + c_i
   const float* rho2_nb[d3q19::q];  // Psi_2 = rho_2 at x + c_i
@@ -248,7 +248,7 @@ struct WaterConstants {
 // so FP32 rounds the deviations, not the densities. Opposite directions go in pairs, which
 // halves the gradient's and the equilibria's arithmetic: on an AVX2 machine (8 lanes, where
 // the collision rather than memory bounds a thread) a step took 9 % less time.
-inline void collide_line(const WaterChunk& in, int count, const WaterConstants& k, float* const post[2],
+inline void collide_line(const WaterLine& in, int count, const WaterConstants& k, float* const post[2],
                          std::size_t stride) {
   using namespace d3q19;
   constexpr float w_axis = static_cast<float>(gradient_weight(1)), w_diag = static_cast<float>(gradient_weight(7));
@@ -365,7 +365,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     psi_row[i] = rows.psi1 + r;
     rho2_row[i] = rows.rho2 + r;
   }
-  WaterChunk in{};
+  WaterLine in{};
   for (int x0 = 0; x0 < nx; x0 += line) {
     const int count = std::min(line, nx - x0);
     for (int c = 0; c < 2; ++c)
