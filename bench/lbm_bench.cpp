@@ -1,8 +1,6 @@
 #include "lbm_bench.hpp"
 #include "machine.hpp"
 
-#include <sys/resource.h>
-
 #include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
@@ -37,12 +35,6 @@ double median_seconds(int repeat, F&& f) {
     t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   return median(std::move(t));
-}
-
-double peak_rss_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;
 }
 
 // STREAM triad a = b + s c on arrays of 128 MiB (4x this machine's 32 MiB L3, STREAM's rule);

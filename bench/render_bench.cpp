@@ -1,8 +1,6 @@
 #include "render_bench.hpp"
 #include "machine.hpp"
 
-#include <sys/resource.h>
-
 #include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
@@ -19,12 +17,6 @@
 
 namespace nephos::bench {
 namespace {
-
-double peak_rss_mib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
-}
 
 // Median over `repeat` runs of the shell pass time [ms].
 double time_shell_ms(const clouds::CloudScene& scene, const render::Sensor& sensor, const earth::SunPosition& sun,
