@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "nephos/core/huge_page_allocator.hpp"
 #include "nephos/earth/geometry.hpp"
 
 namespace nephos::clouds {
@@ -22,8 +23,9 @@ class CubeMap {
   std::size_t texel_count() const { return data_.size(); }
   T& texel(int face, int i, int j) { return data_[index(face, i, j)]; }
   const T& texel(int face, int i, int j) const { return data_[index(face, i, j)]; }
-  std::vector<T>& data() { return data_; }
-  const std::vector<T>& data() const { return data_; }
+  using Storage = std::vector<T, TableAllocator<T>>;  // sampled at random: huge pages
+  Storage& data() { return data_; }
+  const Storage& data() const { return data_; }
 
   /// The point (u, v) in [-1, 1]^2 of `face` on the cube's surface (not normalised): the
   /// inverse of the face selection in sample().
@@ -97,7 +99,7 @@ class CubeMap {
     return (static_cast<std::size_t>(face) * n_ + static_cast<std::size_t>(j)) * n_ + static_cast<std::size_t>(i);
   }
   int n_ = 0;
-  std::vector<T> data_;
+  Storage data_;
 };
 
 }  // namespace nephos::clouds

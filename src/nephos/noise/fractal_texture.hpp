@@ -120,9 +120,9 @@ class Texture3D {
  private:
   [[noreturn]] static void throw_bad_size(int n);
   int n_ = 0;
-  std::vector<Texel, HugePageAllocator<Texel>> data_;  // random access: huge pages
-  std::vector<std::uint16_t> block_bounds_;            // min | max << 8 per block
-  unsigned block_shift_ = 0;                           // log2(voxels per block edge)
+  std::vector<Texel, HugePageAllocator<Texel>> data_;                       // random access: huge pages
+  std::vector<std::uint16_t, TableAllocator<std::uint16_t>> block_bounds_;  // min | max << 8 per block
+  unsigned block_shift_ = 0;                                                // log2(voxels per block edge)
 };
 
 /// Unquantised fractal value at a point of the unit tile (x, y, z in [0, 1)), before the
