@@ -397,12 +397,98 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
   }
 }
 
-earth::Vec3 CloudShell::gradient(const earth::Vec3& p, double h) const {
-  // Forward differences (4 evaluations instead of 6): O(h) error with h ~ two fine voxels,
-  // far below what shading needs.
-  const double v0 = value(p);
-  return {(value(p + earth::Vec3{h, 0, 0}) - v0) / h, (value(p + earth::Vec3{0, h, 0}) - v0) / h,
-          (value(p + earth::Vec3{0, 0, h}) - v0) / h};
+void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value,
+                                    earth::Vec3* gradient) const {
+  // Per chunk, four positions per point (the point, then +h along x, y, z), as arrays:
+  //  1. the mask term at all four, differenced, and the barriers' derivative;
+  //  2. per fractal term, its unwrapped texture coordinates Q = (r / LS) upwind(x / r) at all
+  //     four (differenced: the Jacobian dQ/dx), the footprint at the point, then the fetches
+  //     in a loop of their own so that their cache misses overlap;
+  //  3. value = b + w mask - barrier + sum m_i T_i, gradient = the same terms' derivatives,
+  //     grad T_i chained as J_i^T grad_Q T_i.
+  constexpr std::size_t chunk = 64;
+  constexpr std::size_t m4 = 4 * chunk;
+  alignas(64) double x[m4], y[m4], z[m4], r[m4], ux[m4], uy[m4], uz[m4], smooth[m4];
+  alignas(64) double qx[m4], qy[m4], qz[m4];
+  std::array<noise::Texture3D::Footprint, chunk> fp;
+  std::array<noise::Texture3D::ValueGradient, chunk> tg;
+  std::array<int, 3> terms{};
+  std::size_t nt = 0;
+  for (int i : order_)
+    if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
+  const double inv_h = 1 / h;
+  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
+    const std::size_t m = std::min(chunk, n - c0);
+    for (std::size_t a = 0; a < m; ++a) {
+      const earth::Vec3& q = p[c0 + a];
+      for (std::size_t k = 0; k < 4; ++k) {
+        const std::size_t s = k * chunk + a;
+        const double px = q.x + (k == 1 ? h : 0.0), py = q.y + (k == 2 ? h : 0.0), pz = q.z + (k == 3 ? h : 0.0);
+        const double rr = std::sqrt(px * px + py * py + pz * pz), inv_r = 1 / rr;  // evaluate()'s arithmetic
+        r[s] = rr, x[s] = px * inv_r, y[s] = py * inv_r, z[s] = pz * inv_r;
+      }
+    }
+    // Stage 1: the smooth part (evaluate()'s first stage, without its early exits).
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t o = k * chunk;
+      maps_[0].upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);
+      for (std::size_t a = 0; a < m; ++a) {
+        smooth[o + a] = mask_weight_ * mask_->sample(earth::Vec3{ux[o + a], uy[o + a], uz[o + a]});
+      }
+    }
+    for (std::size_t a = 0; a < m; ++a) {
+      // The barriers' derivative analytic (their length scales, 150 m and up, are not much
+      // longer than h), along the vertical.
+      const double alt = r[a] - earth::radius_m;
+      const double e_bottom = std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m),
+                   e_top = std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m);
+      const double dbarrier =
+          p_.altitude_scale * (e_top / p_.altitude_length_top_m - e_bottom / p_.altitude_length_bottom_m);
+      const double s0 = smooth[a];
+      gradient[c0 + a] = earth::Vec3{(smooth[chunk + a] - s0) * inv_h, (smooth[2 * chunk + a] - s0) * inv_h,
+                                     (smooth[3 * chunk + a] - s0) * inv_h} -
+                         dbarrier * earth::Vec3{x[a], y[a], z[a]};
+      if (value) value[c0 + a] = bias_ + s0 - barrier(alt);
+    }
+    // Stage 2: the fractal terms, in evaluate()'s order.
+    for (std::size_t t = 0; t < nt; ++t) {
+      const int i = terms[t];
+      const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+      const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
+      const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
+      if (!same_upwind)
+        for (std::size_t k = 0; k < 4; ++k) {
+          const std::size_t o = k * chunk;
+          map.upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);
+        }
+      const noise::Texture3D& tex = (*tex_)[i];
+      const double inv_ls = 1 / term.length_scale_m;
+      for (std::size_t k = 0; k < 4; ++k)
+        for (std::size_t a = 0; a < m; ++a) {
+          const std::size_t s = k * chunk + a;
+          const double kk = r[s] * inv_ls;
+          qx[s] = ux[s] * kk, qy[s] = uy[s] * kk, qz[s] = uz[s] * kk;
+        }
+      for (std::size_t a = 0; a < m; ++a)
+        fp[a] =
+            tex.footprint(static_cast<float>(qx[a] - std::floor(qx[a])), static_cast<float>(qy[a] - std::floor(qy[a])),
+                          static_cast<float>(qz[a] - std::floor(qz[a])));
+      for (std::size_t a = 0; a < m; ++a) tg[a] = tex.sample_gradient(fp[a]);
+      const double weight = term.weight;
+      for (std::size_t a = 0; a < m; ++a) {
+        // grad_x T = J^T grad_Q T with J[j][k] = dQ_j / dx_k (forward differences).
+        const earth::Vec3 gq{tg[a].du, tg[a].dv, tg[a].dw};
+        earth::Vec3 g{};
+        for (std::size_t k = 1; k < 4; ++k) {
+          const std::size_t s = k * chunk + a;
+          const earth::Vec3 dq{(qx[s] - qx[a]) * inv_h, (qy[s] - qy[a]) * inv_h, (qz[s] - qz[a]) * inv_h};
+          g[static_cast<glm::length_t>(k - 1)] = glm::dot(gq, dq);
+        }
+        gradient[c0 + a] += weight * g;
+        if (value) value[c0 + a] += weight * tg[a].value;
+      }
+    }
+  }
 }
 
 double CloudShell::feature_size_m() const { return p_.fractals[1].length_scale_m / tex_->fine.size(); }

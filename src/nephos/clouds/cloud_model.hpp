@@ -112,10 +112,15 @@ class CloudShell {
   void classify(const earth::Vec3* p, std::size_t n, double* out) const { evaluate(p, n, out, true); }
   /// value() of n points at once (see classify()).
   void value(const earth::Vec3* p, std::size_t n, double* out) const { evaluate(p, n, out, false); }
+  /// CF at n points and its gradient [1/m] there, for surface normals. The fractal terms'
+  /// gradients are the trilinear interpolants' own (from the eight voxels the value reads),
+  /// chained with the Jacobian of their upwind texture coordinates; that Jacobian and the mask
+  /// term (smooth, cheap lookups) come from forward differences of step h [m], the altitude
+  /// barriers' derivative is analytic. Three texture lookups per point instead of the twelve
+  /// of forward differences of CF itself. `value` may be null.
+  void value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient) const;
   /// The mask value seen at p (after the mask's displacement).
   double mask_at(const earth::Vec3& p) const;
-  /// Gradient of CF by forward differences with step h [m].
-  earth::Vec3 gradient(const earth::Vec3& p, double h) const;
   /// The finest feature size [m]: the fine fractal's voxel.
   double feature_size_m() const;
   /// Conservative test for empty-space skipping: false when no point within `radius_m` of

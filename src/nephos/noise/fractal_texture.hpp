@@ -109,6 +109,29 @@ class Texture3D {
     const float c0 = c00 + f.ty * (c10 - c00), c1 = c01 + f.ty * (c11 - c01);
     return (c0 + f.tz * (c1 - c0)) * (1.0f / texel_max);
   }
+  /// sample(f) and its gradient in tile units (d/du, d/dv, d/dw of the trilinear interpolant,
+  /// 1.0 = one tile), from the same eight voxels: the derivative along each axis is the
+  /// difference of the two voxel planes, interpolated in the other two axes.
+  struct ValueGradient {
+    float value, du, dv, dw;
+  };
+  ValueGradient sample_gradient(const Footprint& f) const {
+    const Texel* d = data_.data();
+    struct Row {
+      float value, dx;
+    };
+    auto row = [&](std::uint32_t yz) {
+      const float a = static_cast<float>(d[yz + f.x0]), b = static_cast<float>(d[yz + f.x1]);
+      return Row{a + f.tx * (b - a), b - a};
+    };
+    const Row r00 = row(f.y0 + f.z0), r10 = row(f.y1 + f.z0), r01 = row(f.y0 + f.z1), r11 = row(f.y1 + f.z1);
+    const float c0 = r00.value + f.ty * (r10.value - r00.value), c1 = r01.value + f.ty * (r11.value - r01.value);
+    const float dx0 = r00.dx + f.ty * (r10.dx - r00.dx), dx1 = r01.dx + f.ty * (r11.dx - r01.dx);
+    const float dy0 = r10.value - r00.value, dy1 = r11.value - r01.value;
+    const float scale = static_cast<float>(n_) / texel_max;  // per voxel and per texel level -> per tile
+    return {(c0 + f.tz * (c1 - c0)) * (1.0f / texel_max), (dx0 + f.tz * (dx1 - dx0)) * scale,
+            (dy0 + f.tz * (dy1 - dy0)) * scale, (c1 - c0) * scale};
+  }
   /// Trilinear value at texture coordinates (u, v, w) (see footprint()).
   float sample(float u, float v, float w) const { return sample(footprint(u, v, w)); }
   /// Value of voxel (i, j, k) in [0, 1].

@@ -84,7 +84,7 @@ struct MarchScratch {
   std::vector<double> ma0, mla, mb0, ds, dx, dy, dz;
   std::vector<double> v_prev, lo, hi, depth_after;
   std::vector<int> k_hit;
-  std::vector<earth::Vec3> pts;
+  std::vector<earth::Vec3> pts, grads;
   std::vector<double> vals;
   void resize_rays(std::size_t n) {
     for (auto* v : {&a0, &la, &b0, &b1, &len}) v->resize(n);
@@ -107,8 +107,8 @@ struct MarchScratch {
     idx.resize(n);
     for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after}) v->resize(n);
     k_hit.resize(n);
-    pts.resize(4 * n);
-    vals.resize(4 * n);
+    pts.resize(n);
+    vals.resize(n);
   }
 };
 
@@ -267,18 +267,12 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
       (w.vals[a] - thr > 0 ? w.hi[j] : w.lo[j]) = 0.5 * (w.lo[j] + w.hi[j]);
     }
   }
-  // 5. Surface normals from the CF gradient by forward differences (O(h) error with h ~ two
-  //    fine voxels, far below what shading needs): four batched exact evaluations per ray.
+  // 5. Surface normals from the CF gradient (CloudShell::value_and_gradient: the textures'
+  //    own gradients, the smooth parts by forward differences with h ~ two fine voxels).
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
-  for (std::size_t j = 0; j < nh; ++j) {
-    const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
-    const earth::Vec3 p = point(j, s_hit);
-    w.pts[j] = p;
-    w.pts[nh + j] = p + earth::Vec3{h, 0, 0};
-    w.pts[2 * nh + j] = p + earth::Vec3{0, h, 0};
-    w.pts[3 * nh + j] = p + earth::Vec3{0, 0, h};
-  }
-  shell.value(w.pts.data(), 4 * nh, w.vals.data());
+  for (std::size_t j = 0; j < nh; ++j) w.pts[j] = point(j, w.k_hit[j] == 0 ? 0.0 : w.hi[j]);
+  w.grads.resize(nh);
+  shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data());
   for (std::size_t j = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
     ShellHit& hit = hits[w.idx[j]];
@@ -288,8 +282,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     hit.position = w.pts[j];
     // Depth: from the surface to the end of the crossing step, then the steps after it.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
-    const double v0 = w.vals[j];
-    const earth::Vec3 g{(w.vals[nh + j] - v0) / h, (w.vals[2 * nh + j] - v0) / h, (w.vals[3 * nh + j] - v0) / h};
+    const earth::Vec3& g = w.grads[j];
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
   }
