@@ -64,6 +64,27 @@ TEST(Texture, TrilinearSamplingHitsVoxelsAndWraps) {
   EXPECT_NEAR(t.sample(15.5f / 16, 0, 0), 0.5f * (t.voxel(15, 0, 0) + t.voxel(0, 0, 0)), 1e-6);
 }
 
+TEST(Texture, SampleGradientIsTheTrilinearInterpolantsDerivative) {
+  // Inside a voxel the trilinear interpolant is linear along each axis, so a central
+  // difference that stays in the voxel is its exact derivative (up to float rounding: the
+  // step is 1/8 voxel, values ~1, float epsilon 6e-8 -> ~1e-5 of a voxel's slope of ~n).
+  const Texture3D t = bake(perlin_spec, 5, 16);
+  for (int s = 0; s < 200; ++s) {
+    const auto u = static_cast<std::uint64_t>(s);
+    // A point at least 1/4 voxel from every voxel face.
+    auto coord = [&](int axis) {
+      const double cell = std::floor(uniform01(21, u, static_cast<std::uint64_t>(axis)) * 16);
+      return static_cast<float>((cell + 0.25 + 0.5 * uniform01(22, u, static_cast<std::uint64_t>(axis))) / 16);
+    };
+    const float x = coord(0), y = coord(1), z = coord(2), d = 1.0f / 128;  // 1/8 voxel
+    const Texture3D::ValueGradient g = t.sample_gradient(t.footprint(x, y, z));
+    EXPECT_NEAR(g.value, t.sample(x, y, z), 1e-6);  // the same interpolation (contraction may differ)
+    EXPECT_NEAR(g.du, (t.sample(x + d, y, z) - t.sample(x - d, y, z)) / (2 * d), 2e-3);
+    EXPECT_NEAR(g.dv, (t.sample(x, y + d, z) - t.sample(x, y - d, z)) / (2 * d), 2e-3);
+    EXPECT_NEAR(g.dw, (t.sample(x, y, z + d) - t.sample(x, y, z - d)) / (2 * d), 2e-3);
+  }
+}
+
 TEST(Texture, DeterministicAcrossThreadsAndSeedDependent) {
   set_threads(1);
   const Texture3D a = bake(perlin_spec, 9, 32);
