@@ -100,7 +100,7 @@ struct MarchScratch {
   std::vector<std::uint8_t> interior;
   void resize_ends(std::size_t n) {
     for (auto* v : {&ex, &ey, &ez}) v->resize(2 * n);
-    possible.resize(2 * n);
+    possible.resize(n);
     segments.resize(n);
   }
   void resize_marched(std::size_t n) {
@@ -152,8 +152,9 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   //    lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
   //    nothing more. The arc between the path's ends is bounded by its chord c without
   //    trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)); most paths (steep views) are
-  //    shorter than one skip radius and need only their two ends. All lookups are batched:
-  //    the ends of every ray, then the interior points of the long paths still undecided.
+  //    shorter than one skip radius, and one lookup at their start covers them. All lookups
+  //    are batched: the start of every ray, then the far end and the interior points of the
+  //    long paths still undecided.
   //    Only the rays that cross the shell are looked up (a GEO frame's space pixels do not).
   const double inv_radius = 1 / shell.skip_radius_rad();
   std::size_t nc = 0;  // rays crossing the shell, compacted into idx
@@ -179,15 +180,16 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     w.segments[c] = 1 + static_cast<int>(std::min(arc_bound * inv_radius, 1e6));
     w.ex[c] = x0, w.ey[c] = y0, w.ez[c] = z0, w.ex[nc + c] = x1, w.ey[nc + c] = y1, w.ez[nc + c] = z1;
   }
-  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), 2 * nc, w.possible.data());
+  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), nc, w.possible.data());
   w.owner.clear();
   w.ix.clear(), w.iy.clear(), w.iz.clear();
   for (std::size_t c = 0; c < nc; ++c) {
-    w.possible[c] = w.possible[c] || w.possible[nc + c];
-    if (w.possible[c]) continue;
+    const int m = w.segments[c];
+    if (w.possible[c] || m == 1) continue;
+    w.owner.push_back(static_cast<std::uint32_t>(c));  // the far end
+    w.ix.push_back(w.ex[nc + c]), w.iy.push_back(w.ey[nc + c]), w.iz.push_back(w.ez[nc + c]);
     const std::uint32_t i = w.idx[c];
     const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
-    const int m = w.segments[c];
     for (int j = 1; j < m; ++j) {
       const double t = path.t_at(path.length() * j / m);
       w.owner.push_back(static_cast<std::uint32_t>(c));
