@@ -209,6 +209,18 @@ double CloudShell::mask_at(const earth::Vec3& p) const {
   return mask_->sample(maps_[0].upwind(p * (1 / r)));
 }
 
+std::size_t CloudShell::active_terms(std::array<int, 3>& terms) const {
+  std::size_t nt = 0;
+  for (int i : order_)
+    if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
+  return nt;
+}
+
+bool CloudShell::shares_upwind(const std::array<int, 3>& terms, std::size_t t) const {
+  return t > 0 && maps_[static_cast<std::size_t>(terms[t] + 1)].hours() ==
+                      maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
+}
+
 double CloudShell::evaluate(const earth::Vec3& p, bool early_out) const {
   double out;
   evaluate(&p, 1, &out, early_out);
@@ -266,11 +278,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
   //     added decide the side.
   // Each point sees exactly the arithmetic of a one-point call, so results do not depend on n.
   const double thr = p_.threshold;
-  // The terms with a non-zero weight, in evaluation order.
   std::array<int, 3> terms{};
-  std::size_t nt = 0;
-  for (int i : order_)
-    if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
+  const std::size_t nt = active_terms(terms);
   const CubeMap<float>& mask_cube = *mask_;
   const float* mask_texels = mask_cube.data().data();
   const int mask_n = mask_cube.size();
@@ -321,8 +330,7 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       const int i = terms[t];
       const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
       const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
-      const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
-      if (!same_upwind) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
+      if (!shares_upwind(terms, t)) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
       const noise::Texture3D& tex = (*tex_)[i];
       const double inv_ls = 1 / term.length_scale_m;
       Footprints& f = w.f[t];
@@ -414,9 +422,7 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
   std::array<noise::Texture3D::Footprint, chunk> fp;
   std::array<noise::Texture3D::ValueGradient, chunk> tg;
   std::array<int, 3> terms{};
-  std::size_t nt = 0;
-  for (int i : order_)
-    if (p_.fractals[static_cast<std::size_t>(i)].weight != 0) terms[nt++] = i;
+  const std::size_t nt = active_terms(terms);
   const double inv_h = 1 / h;
   for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
     const std::size_t m = std::min(chunk, n - c0);
@@ -429,7 +435,7 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
         r[s] = rr, x[s] = px * inv_r, y[s] = py * inv_r, z[s] = pz * inv_r;
       }
     }
-    // Stage 1: the smooth part (evaluate()'s first stage, without its early exits).
+    // Stage 1: the mask term (as evaluate()'s first stage, without its early exits).
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t o = k * chunk;
       maps_[0].upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);
@@ -456,8 +462,7 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
       const int i = terms[t];
       const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
       const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
-      const bool same_upwind = t > 0 && map.hours() == maps_[static_cast<std::size_t>(terms[t - 1] + 1)].hours();
-      if (!same_upwind)
+      if (!shares_upwind(terms, t))
         for (std::size_t k = 0; k < 4; ++k) {
           const std::size_t o = k * chunk;
           map.upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);

@@ -159,6 +159,10 @@ class CloudShell {
   std::shared_ptr<const FractalTextures> tex_;
   std::shared_ptr<const CubeMap<float>> mask_;
   std::vector<DisplacementMap> maps_;  ///< [0] mask, [1..3] fractals
+  /// The fractal terms with a non-zero weight, in evaluation order, into terms; their count.
+  std::size_t active_terms(std::array<int, 3>& terms) const;
+  /// Whether terms[t] is displaced like terms[t - 1], so that its upwind points are those.
+  bool shares_upwind(const std::array<int, 3>& terms, std::size_t t) const;
   double evaluate(const earth::Vec3& p, bool early_out) const;
   void evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const;
   void build_skip_map();

@@ -108,6 +108,7 @@ struct MarchScratch {
     for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after}) v->resize(n);
     k_hit.resize(n);
     pts.resize(n);
+    grads.resize(n);
     vals.resize(n);
   }
 };
@@ -273,7 +274,6 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   //    own gradients, the smooth parts by forward differences with h ~ two fine voxels).
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
   for (std::size_t j = 0; j < nh; ++j) w.pts[j] = point(j, w.k_hit[j] == 0 ? 0.0 : w.hi[j]);
-  w.grads.resize(nh);
   shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data());
   for (std::size_t j = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
