@@ -86,6 +86,8 @@ std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
 // Instance data (17 floats): position relative to the camera [m] and size [m]; colour (ambient +
 // per-shading-group directional, premultiplied by the cloud's opacity) and alpha; texture layer
 // and sheet tiling; bent-normal diffuse colour; fixed facing direction and height/width ratio.
+// A flat-layer pair (LAYER_PAIR) reuses the last two: diffuse.z is the farther layer's opacity,
+// facing_aspect.x the ratio of its height above (or below) the camera to the nearer one's.
 const char* vertex_body = R"(
 layout(location = 0) in vec2 corner;        // -1..1
 layout(location = 1) in vec4 pos_size;      // position relative to the camera [m], size [m]
@@ -103,6 +105,9 @@ out vec3 v_uvl;
 out vec4 v_colour;
 out vec3 v_diffuse;
 out vec3 v_bend;
+#ifdef LAYER_PAIR
+out vec4 v_far;  // the farther layer: texture coordinates [tiles], position [its half-widths]
+#endif
 void main() {
   vec3 ax = cam_right;
   vec3 ay = cam_up;
@@ -124,6 +129,13 @@ void main() {
   v_colour = colour_alpha;
   v_diffuse = diffuse;
   v_bend = corner.x * ax + corner.y * ay;  // fragment - billboard centre, in half-sizes
+#ifdef LAYER_PAIR
+  // The view ray through this point of the nearer sheet meets the farther one, k times as far
+  // above (below) the camera, at k times the horizontal offset: an affine map of the corner, so
+  // interpolated exactly. Both sheets are centred on the camera with the same tiling and offset.
+  vec2 far_corner = corner * facing_aspect.x;
+  v_far = vec4((far_corner * vec2(0.5, -0.5) + 0.5) * layer_tiles.y + diffuse.xy, far_corner);
+#endif
 }
 )";
 const char* fragment_body = R"(
@@ -134,6 +146,9 @@ in vec3 v_uvl;
 in vec4 v_colour;
 in vec3 v_diffuse;
 in vec3 v_bend;
+#ifdef LAYER_PAIR
+in vec4 v_far;
+#endif
 out vec4 frag;
 void main() {
   vec4 t = texture(sprites, v_uvl);  // premultiplied
@@ -146,6 +161,13 @@ void main() {
   c = min(c + v_diffuse * (0.5 * (dot(n, sun_dir) + 1.0)), vec3(1.0));
 #endif
   frag = vec4(t.rgb * c, t.a) * v_colour.a;
+#ifdef LAYER_PAIR
+  // The farther sheet behind the nearer one, where it reaches (within its half-width): the two
+  // "over" blends of separate passes, composited here and blended into the frame once.
+  float far_alpha = max(abs(v_far.z), abs(v_far.w)) <= 1.0 ? v_diffuse.z : 0.0;
+  vec4 t_far = texture(sprites, vec3(v_far.xy, v_uvl.z));
+  frag += (1.0 - frag.a) * vec4(t_far.rgb * c, t_far.a) * far_alpha;
+#endif
 }
 )";
 
@@ -177,14 +199,16 @@ struct SpriteRenderer::Impl {
   EGLDisplay dpy = EGL_NO_DISPLAY;
   EGLContext ctx = EGL_NO_CONTEXT;
   GLuint fbo = 0, colour = 0, depth = 0, vao = 0, quad = 0, instances = 0, texture = 0;
-  // Two programs from the same source: sprites with the bent-normal diffuse term, and everything
-  // else (flat layers, impostor quads, particles) without it. On llvmpipe a shader pays for a
-  // branch's body on every fragment, which made the flat layers cost twice as much.
+  // Three programs from the same source: sprites with the bent-normal diffuse term, everything
+  // else (flat layers, impostor quads, particles) without it, and pairs of flat layers. On
+  // llvmpipe a shader pays for a branch's body on every fragment, which made the flat layers cost
+  // twice as much.
   struct Program {
     GLuint id = 0;
     GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1;
   };
-  Program lit, plain;
+  Program lit, plain, layer_pair;
+  bool merge_layers = true;  // draw two flat layers of a type in one pass (set_merge_flat_layers)
   std::vector<std::size_t> order;
   std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
   std::vector<float> buffer;
@@ -326,7 +350,7 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
                               "precision highp float;\nprecision highp sampler2DArray;\n";
   auto link = [&](Impl::Program& p, const std::string& defines) {
     p.id = glCreateProgram();
-    glAttachShader(p.id, compile(GL_VERTEX_SHADER, version + vertex_body));
+    glAttachShader(p.id, compile(GL_VERTEX_SHADER, version + defines + vertex_body));
     glAttachShader(p.id, compile(GL_FRAGMENT_SHADER, version + defines + fragment_body));
     glLinkProgram(p.id);
     GLint ok = 0;
@@ -341,6 +365,7 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   };
   link(m.lit, "#define BENT_NORMAL 1\n");
   link(m.plain, "");
+  link(m.layer_pair, "#define LAYER_PAIR 1\n");
 
   const auto pixels = bake_sprites(seed);
   glGenTextures(1, &m.texture);
@@ -403,7 +428,7 @@ SpriteRenderer::~SpriteRenderer() {
 }
 
 void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
-                            bool bent_normal) {
+                            Shading shading) {
   auto& m = *impl_;
   const Camera& cam = target.camera;
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
@@ -432,7 +457,9 @@ void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t
   if (count == 0) return;
   glEnable(GL_BLEND);
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // premultiplied alpha
-  const Impl::Program& p = bent_normal ? m.lit : m.plain;
+  const Impl::Program& p = shading == Shading::bent_normal  ? m.lit
+                           : shading == Shading::layer_pair ? m.layer_pair
+                                                            : m.plain;
   glUseProgram(p.id);
   glUniformMatrix4fv(p.u_view_proj, 1, GL_FALSE, &vp[0][0]);
   glUniform3f(p.u_right, static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z));
@@ -510,7 +537,7 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
     push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, 1.0,
                   sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
   }
-  submit(t, 0, order.size(), m.texture, true, true);
+  submit(t, 0, order.size(), m.texture, true, Shading::bent_normal);
 }
 
 FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort,
@@ -611,25 +638,57 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     }
   }
   // Flat layers (altostratus, cirrus, fog), farthest altitude first: wide horizontal sheets
-  // centred under/over the camera, drawn behind the sprite clouds.
-  std::vector<const FlatLayer*> flats;
-  for (const auto& l : field.layers()) flats.push_back(&l);
-  std::sort(flats.begin(), flats.end(), [&](const FlatLayer* a, const FlatLayer* b) {
-    return std::abs(a->altitude_m - cam.position.z) > std::abs(b->altitude_m - cam.position.z);
-  });
+  // centred under/over the camera, drawn behind the sprite clouds. Two layers of one type next to
+  // each other on the same side of the camera are one quad, the nearer sheet's, whose shader
+  // composites the farther sheet behind it (LAYER_PAIR): a frame on the software rasteriser
+  // costs its fill, and an overcast deck of two altostratus sheets would otherwise fill the
+  // upper half of the frame twice. Layers above and below the camera cover disjoint parts of
+  // the frame, so only the order within a side matters.
   const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
-  for (const FlatLayer* l : flats) {
-    const bool cirrus = l->type == SpriteCloudType::cirrus, fog = l->type == SpriteCloudType::low_stratus;
-    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = (cirrus ? 0.45 : fog ? 0.9 : 0.7) * l->opacity;
+  struct LayerStyle {
+    glm::dvec3 colour;
+    double alpha, tile_m;
+  };
+  auto style = [&](const FlatLayer& l) {
+    const bool cirrus = l.type == SpriteCloudType::cirrus, fog = l.type == SpriteCloudType::low_stratus;
+    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = (cirrus ? 0.45 : fog ? 0.9 : 0.7) * l.opacity;
     const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
-    const double size = 2 * l->extent_m, tile_m = cirrus ? 6000.0 : 3000.0;
-    // The sheet is centred on the camera but its pattern belongs to the air: the texture is
-    // offset by where the camera is relative to the drifting air (in tiles; texture v runs
-    // south), so that flying under a layer moves its pattern past, as it moves sprite clouds.
-    const double u = cam_air.x / tile_m, v = -cam_air.y / tile_m;
-    const glm::dvec3 offset{u - std::floor(u), v - std::floor(v), 0.0};
-    push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, c, alpha, sheet_layer, size / tile_m, offset,
-                  glm::dvec3(0.0), 1.0);
+    return LayerStyle{c, alpha, cirrus ? 6000.0 : 3000.0};
+  };
+  std::vector<std::pair<Shading, std::size_t>> layer_runs;  // consecutive draws of one shader
+  std::size_t flat_draws = 0;
+  for (const bool above : {true, false}) {
+    std::vector<const FlatLayer*> side;
+    for (const auto& l : field.layers())
+      if ((l.altitude_m > cam.position.z) == above) side.push_back(&l);
+    std::sort(side.begin(), side.end(), [&](const FlatLayer* a, const FlatLayer* b) {
+      return std::abs(a->altitude_m - cam.position.z) > std::abs(b->altitude_m - cam.position.z);
+    });
+    for (std::size_t i = 0; i < side.size(); ++i) {
+      const FlatLayer* l = side[i];
+      const FlatLayer* behind = nullptr;  // the farther layer of a pair
+      const double dh = l->altitude_m - cam.position.z;
+      if (m.merge_layers && i + 1 < side.size() && side[i + 1]->type == l->type) {
+        const double dh_near = side[i + 1]->altitude_m - cam.position.z;
+        // Ratio of heights above the camera; a nearer sheet almost edge-on (more than 64 times
+        // closer to the camera's altitude) is drawn alone, to keep the float texture coordinates.
+        if (std::abs(dh) <= 64 * std::abs(dh_near)) behind = l, l = side[++i];
+      }
+      const LayerStyle st = style(*l);
+      const double size = 2 * l->extent_m;
+      // The sheet is centred on the camera but its pattern belongs to the air: the texture is
+      // offset by where the camera is relative to the drifting air (in tiles; texture v runs
+      // south), so that flying under a layer moves its pattern past, as it moves sprite clouds.
+      const double u = cam_air.x / st.tile_m, v = -cam_air.y / st.tile_m;
+      const double far_alpha = behind ? style(*behind).alpha : 0.0;
+      const double far_ratio = behind ? (behind->altitude_m - cam.position.z) / (l->altitude_m - cam.position.z) : 0.0;
+      push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, st.colour, st.alpha, sheet_layer,
+                    size / st.tile_m, {u - std::floor(u), v - std::floor(v), far_alpha}, {far_ratio, 0, 0}, 1.0);
+      const Shading shading = behind ? Shading::layer_pair : Shading::plain;
+      if (layer_runs.empty() || layer_runs.back().first != shading) layer_runs.push_back({shading, 0});
+      ++layer_runs.back().second;
+      ++flat_draws;
+    }
   }
   // Sprites not in an impostor; during a crossfade a sprite in only one set is also drawn as a
   // sprite, fading against that set.
@@ -707,10 +766,12 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // bent-normal term).
   const Target target = screen(cam, sun);
   const std::size_t rings = ring_quads[0] + ring_quads[1];
-  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true, false);
-  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, false);
-  submit(target, rings, flats.size(), m.texture, false, false);
-  submit(target, rings + flats.size(), m.buffer.size() / 17 - rings - flats.size(), m.texture, false, true);
+  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true, Shading::plain);
+  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, Shading::plain);
+  std::size_t first = rings;
+  for (const auto& [shading, count] : layer_runs)
+    submit(target, first, count, m.texture, false, shading), first += count;
+  submit(target, first, m.buffer.size() / 17 - first, m.texture, false, Shading::bent_normal);
   glFinish();
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   stats.sprites = items.size();
@@ -735,7 +796,7 @@ FrameStats SpriteRenderer::draw_points(const PointSprites& sp, const Camera& cam
     b[16] = 1;
   }
   SunLight none{{0, 0, 1}, {0, 0, 0}, 90};
-  submit(screen(cam, none), 0, n, impl_->texture, true, false);
+  submit(screen(cam, none), 0, n, impl_->texture, true, Shading::plain);
   glFinish();
   FrameStats s;
   s.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -750,6 +811,8 @@ void SpriteRenderer::set_single_sprite_distance(double distance_m) {
     throw ValueError("the single-sprite distance must be >= 0 m (0: off)", {.key = "single_sprite_distance_m"});
   impl_->single_sprite_distance_m = distance_m;
 }
+
+void SpriteRenderer::set_merge_flat_layers(bool merge) { impl_->merge_layers = merge; }
 
 void SpriteRenderer::set_impostor_radius(double radius_m) {
   if (!(radius_m > 0)) throw ValueError("the impostor ring radius must be > 0 m", {.key = "impostor_radius_m"});

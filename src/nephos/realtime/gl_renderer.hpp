@@ -78,6 +78,10 @@ class SpriteRenderer {
   /// default) draws every sprite. With the impostor ring on, it applies to the clouds the ring
   /// does not hold (forming or dissipating, or beyond the 10,000 ft rule).
   void set_single_sprite_distance(double distance_m);
+  /// Whether two flat layers of one type, next to each other on the same side of the camera,
+  /// are drawn as one quad compositing both (default, one fill instead of two) or as two quads
+  /// (for comparison; the frames agree to the rounding of the 8-bit blends).
+  void set_merge_flat_layers(bool merge);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// Copies the last frame into the current context's default framebuffer (window mode),
@@ -109,10 +113,12 @@ class SpriteRenderer {
     glm::dvec3 sun{0, 0, 1};
   };
   Target screen(const Camera& camera, const SunLight& sun) const;
-  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call,
-  /// with the sprites' bent-normal diffuse term or without it (flat layers, impostors, particles).
+  /// Which shader a draw uses: flat (impostor quads, single flat layers, particles), sprites with
+  /// the bent-normal diffuse term, or two flat layers of one type composited in one pass.
+  enum class Shading { plain, bent_normal, layer_pair };
+  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
   void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
-              bool bent_normal);
+              Shading shading);
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
   void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
                        const Camera& camera);

@@ -184,6 +184,44 @@ TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
   EXPECT_GT(max_diff(at0, frame(windy, 0)), 20);
 }
 
+TEST(SpriteRendererGl, LayerPairInOnePassMatchesTwoPasses) {
+  // Two altostratus sheets (4000 and 4800 m) drawn as one quad whose shader composites the
+  // farther sheet behind the nearer one must give the frame of two separately blended sheets:
+  // "over" is associative, so only rounding differs: llvmpipe's 8-bit fixed-point blend is
+  // within one level per operation, the two-pass frame rounds the farther sheet's blend and
+  // then the nearer one's, the one-pass frame converts the composited fragment and blends once:
+  // at most three levels, and rarely more than one (under 2 % of the channels). Seen from below
+  // (both above the camera, horizon and both sheets' edges in view), from above, and from
+  // between (no pair).
+  CloudRecipe r;
+  r.layers.push_back({SpriteCloudType::altostratus, 2, 4000, 5000, 8});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(160, 96, 7);
+  for (const double z : {1000.0, 7000.0, 4400.0}) {
+    const CloudField field(r, 7, {0, 0, z});
+    ASSERT_EQ(field.layers().size(), 2u);
+    const Camera cam{{0, 0, z}, {1, 0, z < 4400 ? 0.05 : -0.05}, {0, 0, 1}, 60};
+    std::vector<std::uint8_t> frames[2];
+    for (const bool merge : {true, false}) {
+      renderer.set_merge_flat_layers(merge);
+      renderer.draw(field, cam, sun, true, false);
+      frames[merge] = renderer.read_pixels();
+    }
+    int max_diff = 0, sky_diff = 0;  // largest channel difference; against the clear sky
+    std::size_t over_one = 0;        // channels more than one level apart
+    const auto sky = SpriteRenderer::sky_colour();
+    for (std::size_t i = 0; i < frames[0].size(); ++i) {
+      const int d = std::abs(int{frames[0][i]} - int{frames[1][i]});
+      max_diff = std::max(max_diff, d);
+      over_one += d > 1;
+      sky_diff = std::max(sky_diff, std::abs(int{frames[1][i]} - int{sky[i % 4]}));
+    }
+    EXPECT_LE(max_diff, 3) << "camera at " << z << " m";
+    EXPECT_LT(over_one, frames[0].size() / 50) << "camera at " << z << " m";
+    EXPECT_GT(sky_diff, 20) << "the sheets are drawn (camera at " << z << " m)";
+  }
+}
+
 TEST(SpriteRendererGl, ImpostorRingLivesInTheDriftingAir) {
   // The ring's thresholds (15 % of its radius horizontally) are measured in the frame of the air
   // the clouds drift with: an aircraft drifting with a 100 m/s wind sees no re-render in 30 s
