@@ -656,7 +656,6 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     return LayerStyle{c, alpha, cirrus ? 6000.0 : 3000.0};
   };
   std::vector<std::pair<Shading, std::size_t>> layer_runs;  // consecutive draws of one shader
-  std::size_t flat_draws = 0;
   for (const bool above : {true, false}) {
     std::vector<const FlatLayer*> side;
     for (const auto& l : field.layers())
@@ -668,7 +667,10 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       const FlatLayer* l = side[i];
       const FlatLayer* behind = nullptr;  // the farther layer of a pair
       const double dh = l->altitude_m - cam.position.z;
-      if (m.merge_layers && i + 1 < side.size() && side[i + 1]->type == l->type) {
+      // A pair needs equal extents: the shader masks the farther sheet at k times the nearer
+      // one's half-width.
+      if (m.merge_layers && i + 1 < side.size() && side[i + 1]->type == l->type &&
+          side[i + 1]->extent_m == l->extent_m) {
         const double dh_near = side[i + 1]->altitude_m - cam.position.z;
         // Ratio of heights above the camera; a nearer sheet almost edge-on (more than 64 times
         // closer to the camera's altitude) is drawn alone, to keep the float texture coordinates.
@@ -687,7 +689,6 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       const Shading shading = behind ? Shading::layer_pair : Shading::plain;
       if (layer_runs.empty() || layer_runs.back().first != shading) layer_runs.push_back({shading, 0});
       ++layer_runs.back().second;
-      ++flat_draws;
     }
   }
   // Sprites not in an impostor; during a crossfade a sprite in only one set is also drawn as a
