@@ -60,6 +60,32 @@ class Evaluator {
     return sum;
   }
 
+  /// operator()(i / n, y, z) for 0 <= i < n into out[i], with the same arithmetic per voxel.
+  /// Octave by octave, the row is cut into runs of voxels inside one lattice cell along x; a
+  /// run reads its 8 gradients (27 feature points) once, and its voxels are a loop of
+  /// arithmetic without table lookups, which the compiler vectorises.
+  void row(int n, double y, double z, double* out) const {
+    const double inv = 1.0 / n;
+    std::fill(out, out + n, 0.0);
+    double amp = 1;
+    for (int o = 0; o < spec_.octaves; ++o) {
+      const int cells = spec_.base_cells << o;
+      const double py = y * cells, pz = z * cells;
+      const int iy = static_cast<int>(std::floor(py)), iz = static_cast<int>(std::floor(pz));
+      for (int i0 = 0; i0 < n;) {
+        const int ix = static_cast<int>(std::floor(i0 * inv * cells));
+        int i1 = i0 + 1;  // the run: the voxels with the same lattice cell along x
+        while (i1 < n && static_cast<int>(std::floor(i1 * inv * cells)) == ix) ++i1;
+        if (spec_.kind == FractalKind::perlin)
+          perlin_run(o, cells, ix, iy, iz, py, pz, i0, i1, inv, amp, out);
+        else
+          worley_run(o, cells, ix, iy, iz, py, pz, i0, i1, inv, amp, out);
+        i0 = i1;
+      }
+      amp *= spec_.persistence;
+    }
+  }
+
  private:
   const float* entry(int o, int cells, int i, int j, int k) const {
     return &tables_[static_cast<std::size_t>(o)]
@@ -101,6 +127,61 @@ class Evaluator {
     return std::sqrt(best);
   }
 
+  // perlin() over the voxels [i0, i1) of a row, all in lattice cell (ix, iy, iz); adds amp times
+  // the value to out[i]. The expressions are perlin()'s, term for term.
+  void perlin_run(int o, int cells, int ix, int iy, int iz, double py, double pz, int i0, int i1, double inv,
+                  double amp, double* out) const {
+    const double fy = py - iy, fz = pz - iz;
+    float g[8][3];
+    for (int c = 0; c < 8; ++c) {
+      const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+      const float* e = entry(o, cells, ix + dx, iy + dy, iz + dz);
+      g[c][0] = e[0], g[c][1] = e[1], g[c][2] = e[2];
+    }
+    const double v = fade(fy), w = fade(fz);
+#pragma omp simd
+    for (int i = i0; i < i1; ++i) {
+      const double px = i * inv * cells;
+      const double fx = px - ix;
+      double n[2][2][2];
+#pragma GCC unroll 8
+      for (int c = 0; c < 8; ++c) {
+        const int dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
+        n[dz][dy][dx] = g[c][0] * (fx - dx) + g[c][1] * (fy - dy) + g[c][2] * (fz - dz);
+      }
+      const double u = fade(fx);
+      auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+      out[i] += amp * lerp(lerp(lerp(n[0][0][0], n[0][0][1], u), lerp(n[0][1][0], n[0][1][1], u), v),
+                           lerp(lerp(n[1][0][0], n[1][0][1], u), lerp(n[1][1][0], n[1][1][1], u), v), w);
+    }
+  }
+
+  // worley() over the voxels [i0, i1) of a row, all in lattice cell (ix, iy, iz).
+  void worley_run(int o, int cells, int ix, int iy, int iz, double py, double pz, int i0, int i1, double inv,
+                  double amp, double* out) const {
+    double fxs[27], eys[27], ezs[27];  // per neighbour: (ix + dx) + f_x, and the y, z offsets
+    int q = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx, ++q) {
+          const float* f = entry(o, cells, ix + dx, iy + dy, iz + dz);
+          fxs[q] = (ix + dx) + double{f[0]};
+          eys[q] = (iy + dy) + double{f[1]} - py;
+          ezs[q] = (iz + dz) + double{f[2]} - pz;
+        }
+#pragma omp simd
+    for (int i = i0; i < i1; ++i) {
+      const double px = i * inv * cells;
+      double best = std::numeric_limits<double>::max();
+#pragma GCC unroll 27
+      for (int k = 0; k < 27; ++k) {
+        const double ex = fxs[k] - px;
+        best = std::min(best, ex * ex + eys[k] * eys[k] + ezs[k] * ezs[k]);
+      }
+      out[i] += amp * std::sqrt(best);
+    }
+  }
+
   FractalSpec spec_;
   std::vector<std::vector<float>> tables_;
 };
@@ -122,11 +203,17 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
   std::vector<float> raw(count);
   const Evaluator eval(spec, seed);
   const double inv = 1.0 / n;
-#pragma omp parallel for schedule(static)
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        raw[(static_cast<std::size_t>(k) * n + j) * n + i] = static_cast<float>(eval(i * inv, j * inv, k * inv));
+#pragma omp parallel
+  {
+    std::vector<double> row(static_cast<std::size_t>(n));
+#pragma omp for schedule(static)
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j) {
+        eval.row(n, j * inv, k * inv, row.data());
+        float* dst = raw.data() + (static_cast<std::size_t>(k) * n + j) * n;
+        for (int i = 0; i < n; ++i) dst[i] = static_cast<float>(row[static_cast<std::size_t>(i)]);
+      }
+  }
   const auto [lo_it, hi_it] = std::minmax_element(raw.begin(), raw.end());
   const float lo = *lo_it, span = std::max(*hi_it - lo, 1e-30f);
   Texture3D t(n);
