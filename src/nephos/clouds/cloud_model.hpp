@@ -81,8 +81,9 @@ struct CloudModelParams {
   CloudTypeParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
 };
 
-/// A weather mask resampled onto a cube map (bilinear from the lat-lon grid).
-CubeMap<float> mask_cube(const weather::WeatherMasks& masks, CloudType type, int n);
+/// The weather masks of `types` resampled onto n x n cube maps (bilinear from the lat-lon
+/// grid), one per type in order.
+std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const std::vector<CloudType>& types, int n);
 
 /// One cloud type ready to evaluate: textures, displacement maps, mask, calibrated constants.
 class CloudShell {

@@ -1,5 +1,6 @@
 #include "nephos/clouds/displacement.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "nephos/weather/sampler.hpp"
@@ -25,28 +26,75 @@ WindField make_wind_field(const weather::WeatherGrid& weather, double altitude_m
   return w;
 }
 
-earth::Vec3 trace_upwind(const WindField& wind, earth::Vec3 p, double seconds, double step_s) {
+namespace {
+// The steps of trace_upwind() for a duration, and their length h (backwards in time, per unit
+// radius).
+struct Steps {
+  int count;
+  double h;
+};
+Steps steps_for(const WindField& wind, double seconds, double step_s) {
   const double r = earth::radius_m + wind.altitude_m;
   const int steps = std::max(1, static_cast<int>(std::ceil(seconds / step_s)));
-  const double h = -seconds / steps / r;  // backwards in time, per unit radius
+  return {steps, -seconds / steps / r};
+}
+// One RK4 step on the unit sphere.
+earth::Vec3 rk4_step(const WindField& wind, const earth::Vec3& p, double h) {
   auto f = [&](const earth::Vec3& q) { return wind.at(q); };
-  for (int s = 0; s < steps; ++s) {
-    const earth::Vec3 k1 = f(p);
-    const earth::Vec3 k2 = f(glm::normalize(p + 0.5 * h * k1));
-    const earth::Vec3 k3 = f(glm::normalize(p + 0.5 * h * k2));
-    const earth::Vec3 k4 = f(glm::normalize(p + h * k3));
-    p = glm::normalize(p + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4));
-  }
+  const earth::Vec3 k1 = f(p);
+  const earth::Vec3 k2 = f(glm::normalize(p + 0.5 * h * k1));
+  const earth::Vec3 k3 = f(glm::normalize(p + 0.5 * h * k2));
+  const earth::Vec3 k4 = f(glm::normalize(p + h * k3));
+  return glm::normalize(p + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4));
+}
+}  // namespace
+
+earth::Vec3 trace_upwind(const WindField& wind, earth::Vec3 p, double seconds, double step_s) {
+  const Steps st = steps_for(wind, seconds, step_s);
+  for (int s = 0; s < st.count; ++s) p = rk4_step(wind, p, st.h);
   return p;
 }
 
 DisplacementMap DisplacementMap::build(const WindField& wind, double hours, int n, double step_s) {
-  DisplacementMap m;
-  m.hours_ = hours;
-  if (hours == 0) return m;
-  m.upwind_ = CubeMap<glm::vec3>(n);
-  m.upwind_.fill([&](const earth::Vec3& d) { return glm::vec3(trace_upwind(wind, d, hours * 3600.0, step_s)); });
-  return m;
+  return build_all(wind, {hours}, n, step_s).front();
+}
+
+std::vector<DisplacementMap> DisplacementMap::build_all(const WindField& wind, const std::vector<double>& hours, int n,
+                                                        double step_s) {
+  // Durations whose steps have the same length (6, 8, 10, 12 h in 30-minute steps) share
+  // one integration: each texel is traced to the longest, and the shorter ones are the points
+  // it passes on the way, after exactly the steps trace_upwind() would take, so the same bits.
+  std::vector<DisplacementMap> maps(hours.size());
+  std::vector<std::size_t> group;  // the maps traced together
+  std::vector<int> counts;         // their step counts
+  double h = 0;
+  for (std::size_t k = 0; k < hours.size(); ++k) {
+    maps[k].hours_ = hours[k];
+    if (hours[k] == 0) continue;  // the identity
+    const Steps st = steps_for(wind, hours[k] * 3600.0, step_s);
+    if (group.empty() || st.h == h) {
+      h = st.h;
+      group.push_back(k);
+      counts.push_back(st.count);
+      maps[k].upwind_ = CubeMap<glm::vec3>(n);
+    } else {  // a different step length: traced on its own
+      maps[k] = build_all(wind, {hours[k]}, n, step_s).front();
+    }
+  }
+  if (group.empty()) return maps;
+  const int last = *std::max_element(counts.begin(), counts.end());
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int f = 0; f < 6; ++f)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        earth::Vec3 p = maps[group.front()].upwind_.texel_direction(f, i, j);
+        for (int s = 1; s <= last; ++s) {
+          p = rk4_step(wind, p, h);
+          for (std::size_t g = 0; g < group.size(); ++g)
+            if (counts[g] == s) maps[group[g]].upwind_.texel(f, i, j) = glm::vec3(p);
+        }
+      }
+  return maps;
 }
 
 DisplacementMap DisplacementMap::advanced(const WindField& wind, double hours, double step_s, int n) const {

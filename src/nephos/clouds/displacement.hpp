@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/glm.hpp>
+#include <vector>
 
 #include "nephos/clouds/cube_map.hpp"
 #include "nephos/weather/weather_grid.hpp"
@@ -68,6 +69,10 @@ class DisplacementMap {
 
   /// Integrates every texel `hours` backwards in `wind` with time step `step_s` [s].
   static DisplacementMap build(const WindField& wind, double hours, int n = 128, double step_s = 1800.0);
+  /// build() of each of `hours`, in that order: durations with the same step length share one
+  /// integration (the shorter maps are recorded on the way), with the same results.
+  static std::vector<DisplacementMap> build_all(const WindField& wind, const std::vector<double>& hours, int n = 128,
+                                                double step_s = 1800.0);
   /// This map advanced by `hours` more (frame-to-frame propagation by composition).
   DisplacementMap advanced(const WindField& wind, double hours, double step_s = 1800.0, int n = 128) const;
 

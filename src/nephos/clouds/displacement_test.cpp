@@ -56,6 +56,31 @@ TEST(Displacement, CrossesThePoleWithoutSingularity) {
   EXPECT_NEAR(up.y, 0.0, 1e-6);
 }
 
+TEST(Displacement, MapsBuiltTogetherAreEachTexelsOwnTrace) {
+  // build_all() traces the durations of one step length together (6 h is the first 12 of 8 h's
+  // 16 half-hour steps); every texel must still be exactly trace_upwind() of its direction
+  // for its own duration, including a duration of another step length (6.25 h: 13 steps of
+  // 1730.8 s) and the identity (0 h), in the order asked for.
+  const WindField w = rotation(glm::normalize(earth::Vec3{0.2, -0.4, 1.0}), 25.0 / earth::radius_m, 32);
+  const std::vector<double> hours{8, 0, 6, 6.25, 2};
+  constexpr int n = 16;
+  const std::vector<DisplacementMap> maps = DisplacementMap::build_all(w, hours, n, 1800);
+  ASSERT_EQ(maps.size(), hours.size());
+  for (std::size_t k = 0; k < hours.size(); ++k) {
+    EXPECT_EQ(maps[k].hours(), hours[k]);
+    EXPECT_EQ(maps[k].is_identity(), hours[k] == 0);
+    if (hours[k] == 0) continue;
+    int mismatches = 0;
+    for (int f = 0; f < 6; ++f)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const earth::Vec3 d = maps[k].map().texel_direction(f, i, j);
+          mismatches += maps[k].map().texel(f, i, j) != glm::vec3(trace_upwind(w, d, hours[k] * 3600.0, 1800));
+        }
+    EXPECT_EQ(mismatches, 0) << hours[k] << " h";
+  }
+}
+
 TEST(Displacement, MapsComposeForAnimation) {
   // build(H).advanced(A) equals build(H + A) up to cube-map interpolation (< 0.01 deg here).
   const double omega = 25.0 / earth::radius_m;

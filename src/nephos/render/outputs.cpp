@@ -4,6 +4,7 @@
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 
 #include <fmt/format.h>
 #include <algorithm>
@@ -12,6 +13,7 @@
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
+#include "nephos/core/parallel.hpp"
 #include "nephos/io/netcdf_writer.hpp"
 #include "nephos/io/png.hpp"
 #include "nephos/optics/optics.hpp"
@@ -103,6 +105,9 @@ void write_render_exr(const std::filesystem::path& path, const RenderImage& img)
     }
     add("cloud_top_altitude", img.cloud_top_altitude_m);
     add("cloud_optical_depth", img.cloud_optical_depth);
+    // Compressed by OpenEXR's own thread pool, one thread per OpenMP thread: the ZIP blocks of
+    // 16 scan lines are independent, and the file's bytes do not depend on the thread count.
+    if (Imf::globalThreadCount() < thread_count()) Imf::setGlobalThreadCount(thread_count());
     Imf::OutputFile file(out.temp_path().c_str(), header);
     file.setFrameBuffer(fb);
     file.writePixels(img.height);
