@@ -187,20 +187,26 @@ void CloudShell::build_skip_map() {
       }
       // The 7 x 7 maximum, separably: over 7 lattice points along a, then over 7 rows along b.
       // Texel i spans lattice points 2i + 2 .. 2i + 4; grown by one texel: 2i .. 2i + 6.
+      // Loops over i innermost, so that they vectorise (max is exact: any order gives the same).
 #pragma omp parallel for schedule(static)
-    for (int b = 0; b < m; ++b)
-      for (int i = 0; i < n; ++i) {
-        float mx = 0;
-        for (int a = 2 * i; a <= 2 * i + 6; ++a) mx = std::max(mx, lattice[static_cast<std::size_t>(b) * m + a]);
-        row_max[static_cast<std::size_t>(b) * n + i] = mx;
-      }
+    for (int b = 0; b < m; ++b) {
+      const float* in = lattice.data() + static_cast<std::size_t>(b) * m;
+      float* out = row_max.data() + static_cast<std::size_t>(b) * n;
+      std::fill(out, out + n, 0.0f);
+      for (int a = 0; a <= 6; ++a)
+#pragma omp simd
+        for (int i = 0; i < n; ++i) out[i] = std::max(out[i], in[2 * i + a]);
+    }
 #pragma omp parallel for schedule(static)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        float mx = 0;
-        for (int b = 2 * j; b <= 2 * j + 6; ++b) mx = std::max(mx, row_max[static_cast<std::size_t>(b) * n + i]);
-        mask_max_.texel(f, i, j) = mx;
+    for (int j = 0; j < n; ++j) {
+      float* out = &mask_max_.texel(f, 0, j);
+      std::fill(out, out + n, 0.0f);
+      for (int b = 2 * j; b <= 2 * j + 6; ++b) {
+        const float* in = row_max.data() + static_cast<std::size_t>(b) * n;
+#pragma omp simd
+        for (int i = 0; i < n; ++i) out[i] = std::max(out[i], in[i]);
       }
+    }
   }
   // The smallest texel on a gnomonic face spans 2/n of the tangent plane at the face corner,
   // an angle of about (2/n)/3 rad; one such texel of margin is what a lookup guarantees.
