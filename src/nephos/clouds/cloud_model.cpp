@@ -180,14 +180,15 @@ void CloudShell::build_skip_map() {
   std::vector<float> lattice(static_cast<std::size_t>(m) * m), row_max(static_cast<std::size_t>(m) * n);
   for (int f = 0; f < 6; ++f) {
 #pragma omp parallel for schedule(static)
-    for (int b = 0; b < m; ++b)
+    for (int b = 0; b < m; ++b) {
       for (int a = 0; a < m; ++a) {
         const earth::Vec3 d = CubeMap<float>::face_point(f, (a - 2.0) / n - 1.0, (b - 2.0) / n - 1.0);
         lattice[static_cast<std::size_t>(b) * m + a] = static_cast<float>(mask_at(d));
       }
-      // The 7 x 7 maximum, separably: over 7 lattice points along a, then over 7 rows along b.
-      // Texel i spans lattice points 2i + 2 .. 2i + 4; grown by one texel: 2i .. 2i + 6.
-      // Loops over i innermost, so that they vectorise (max is exact: any order gives the same).
+    }
+    // The 7 x 7 maximum, separably: over 7 lattice points along a, then over 7 rows along b.
+    // Texel i spans lattice points 2i + 2 .. 2i + 4; grown by one texel: 2i .. 2i + 6.
+    // Loops over i innermost, so that they vectorise (max is exact: any order gives the same).
 #pragma omp parallel for schedule(static)
     for (int b = 0; b < m; ++b) {
       const float* in = lattice.data() + static_cast<std::size_t>(b) * m;
@@ -553,10 +554,9 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
   }
   std::map<std::pair<int, double>, DisplacementMap> map_cache;
   for (std::size_t w = 0; w < scene.winds.size(); ++w) {
-    const auto maps = DisplacementMap::build_all(scene.winds[w], hours_of_wind[w], params.displacement_cube_size,
-                                                 params.displacement_step_s);
-    for (std::size_t k = 0; k < maps.size(); ++k)
-      map_cache.emplace(std::pair{static_cast<int>(w), maps[k].hours()}, maps[k]);
+    auto maps = DisplacementMap::build_all(scene.winds[w], hours_of_wind[w], params.displacement_cube_size,
+                                           params.displacement_step_s);
+    for (auto& m : maps) map_cache.emplace(std::pair{static_cast<int>(w), m.hours()}, std::move(m));
   }
   const double winds_s = seconds_since(t0);
   for (CloudType t : types) {
