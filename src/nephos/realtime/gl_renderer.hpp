@@ -51,6 +51,15 @@ const char* name(GlApi api);
 /// RGBA8 pixels of `framebuffer` (0: the window's) of the current context, rows from the top.
 std::vector<std::uint8_t> read_framebuffer_rgba(unsigned framebuffer, int width, int height);
 
+/// The octagon |x| <= a, |y| <= b, |x| + |y| <= c (quad corners at +-1) outside which a sprite
+/// texture's bilinear samples are all transparent: drawn instead of the whole quad, it spares
+/// the rasteriser the transparent corners (particle trimming). All zero for a transparent texture.
+struct SpriteTrim {
+  float a = 1, b = 1, c = 2;
+};
+/// SpriteTrim of one `size` x `size` RGBA8 texture (rows from the top).
+SpriteTrim sprite_trim(const std::uint8_t* rgba, int size);
+
 class SpriteRenderer {
  public:
   /// Creates a headless EGL context of `api` and an off-screen framebuffer. Throws IoError if
@@ -82,6 +91,9 @@ class SpriteRenderer {
   /// are drawn as one quad compositing both (default, one fill instead of two) or as two quads
   /// (for comparison; the frames agree to the rounding of the 8-bit blends).
   void set_merge_flat_layers(bool merge);
+  /// Whether sprites cover only the octagon of their texture's non-transparent texels (default)
+  /// or the whole quad (for comparison: the frames are the same up to float rounding).
+  void set_trim_sprites(bool trim);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// Copies the last frame into the current context's default framebuffer (window mode),

@@ -222,6 +222,94 @@ TEST(SpriteRendererGl, LayerPairInOnePassMatchesTwoPasses) {
   }
 }
 
+TEST(SpriteTrim, BilinearSamplesOutsideTheOctagonAreTransparent) {
+  // OpenGL's bilinear filter (GL_LINEAR, GL_REPEAT) at texture coordinate s reads the four texel
+  // centres around s * size - 0.5; the octagon must hold every point where one of them is
+  // non-zero. Textures: one opaque texel (the octagon is its one-texel neighbourhood, known in
+  // closed form), a disc, an ellipse off the centre, an opaque and a transparent texture.
+  constexpr int n = 16;
+  const double pitch = 2.0 / n;  // texel size in quad units (corners at -1, 1)
+  auto texture = [&](auto opaque) {
+    std::vector<std::uint8_t> t(n * n * 4, 0);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        if (opaque((x + 0.5) * pitch - 1, 1 - (y + 0.5) * pitch)) t[(y * n + x) * 4 + 3] = 200;
+    return t;
+  };
+  // One texel, the fifth column (u = -0.4375) and the third row from the top (v = 0.6875).
+  const auto one =
+      texture([](double u, double v) { return std::abs(u + 0.4375) < 1e-9 && std::abs(v - 0.6875) < 1e-9; });
+  const SpriteTrim t1 = sprite_trim(one.data(), n);
+  EXPECT_FLOAT_EQ(t1.a, 0.4375f + 0.125f);  // |u| + one pitch (exact in binary)
+  EXPECT_FLOAT_EQ(t1.b, 0.6875f + 0.125f);
+  EXPECT_FLOAT_EQ(t1.c, 0.4375f + 0.6875f + 0.25f);
+  const auto none = texture([](double, double) { return false; });
+  const SpriteTrim t0 = sprite_trim(none.data(), n);
+  EXPECT_EQ(t0.a, 0.0f);
+  EXPECT_EQ(t0.c, 0.0f);
+  const auto full = texture([](double, double) { return true; });
+  const SpriteTrim tf = sprite_trim(full.data(), n);
+  EXPECT_EQ(tf.a, 1.0f);
+  EXPECT_EQ(tf.b, 1.0f);
+  EXPECT_EQ(tf.c, 2.0f);
+  for (const auto& tex : {one, texture([](double u, double v) { return u * u + v * v < 0.5; }),
+                          texture([](double u, double v) { return (u - 0.2) * (u - 0.2) / 0.3 + v * v / 0.1 < 1; })}) {
+    const SpriteTrim t = sprite_trim(tex.data(), n);
+    int outside = 0;
+    for (int i = 0; i <= 400; ++i)
+      for (int j = 0; j <= 400; ++j) {
+        const double u = -1 + i * 0.005, v = -1 + j * 0.005;  // quad coordinates
+        if (std::abs(u) <= t.a && std::abs(v) <= t.b && std::abs(u) + std::abs(v) <= t.c) continue;
+        ++outside;
+        // The bilinear footprint: texel coordinates (s, t) in [0, n), rows from the top.
+        const double sx = (u + 1) / 2 * n - 0.5, sy = (1 - v) / 2 * n - 0.5;
+        const int x0 = static_cast<int>(std::floor(sx)), y0 = static_cast<int>(std::floor(sy));
+        const double fx = sx - x0, fy = sy - y0;
+        double alpha = 0;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int x = ((x0 + dx) % n + n) % n, y = ((y0 + dy) % n + n) % n;  // GL_REPEAT
+            alpha += (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy) * tex[(y * n + x) * 4 + 3];
+          }
+        ASSERT_EQ(alpha, 0.0) << "at (" << u << ", " << v << ")";
+      }
+    EXPECT_GT(outside, 20000) << "the octagon trims a part of the quad";
+  }
+}
+
+TEST(SpriteRendererGl, TrimmedSpritesMatchWholeQuads) {
+  // Drawing each sprite over its texture's octagon instead of the whole quad leaves out only
+  // fragments whose texture sample is transparent (blending (0, 0, 0, 0) leaves the frame
+  // unchanged), and the attributes interpolate the same affine functions over either triangle
+  // set: the frames differ by float rounding only, at most one level in a few channels. A
+  // cloudy scene from inside the layer and from above, with and without the impostor ring.
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 5, {0, 0, 2400});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(192, 108, 5);
+  for (const double z : {2400.0, 4500.0})
+    for (const bool impostors : {false, true}) {
+      const Camera cam{{0, 0, z}, {1, 0.2, z > 3000 ? -0.3 : -0.05}, {0, 0, 1}, 60};
+      std::vector<std::uint8_t> frames[2];
+      for (const bool trim : {true, false}) {
+        renderer.set_trim_sprites(trim);
+        renderer.draw(field, cam, sun, true, impostors);
+        frames[trim] = renderer.read_pixels();
+      }
+      int max_diff = 0, sky_diff = 0;
+      std::size_t differ = 0;
+      const auto sky = SpriteRenderer::sky_colour();
+      for (std::size_t i = 0; i < frames[0].size(); ++i) {
+        const int d = std::abs(int{frames[0][i]} - int{frames[1][i]});
+        max_diff = std::max(max_diff, d);
+        differ += d > 0;
+        sky_diff = std::max(sky_diff, std::abs(int{frames[1][i]} - int{sky[i % 4]}));
+      }
+      EXPECT_LE(max_diff, 1) << "camera at " << z << " m, impostors " << impostors;
+      EXPECT_LT(differ, frames[0].size() / 200) << "camera at " << z << " m, impostors " << impostors;
+      EXPECT_GT(sky_diff, 20) << "clouds are drawn (camera at " << z << " m)";
+    }
+}
+
 TEST(SpriteRendererGl, ImpostorRingLivesInTheDriftingAir) {
   // The ring's thresholds (15 % of its radius horizontally) are measured in the frame of the air
   // the clouds drift with: an aircraft drifting with a 100 m/s wind sees no re-render in 30 s
