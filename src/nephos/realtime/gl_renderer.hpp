@@ -3,7 +3,8 @@
 // or desktop OpenGL 3.3 core with the same shaders (only the GLSL version line differs):
 // headless through EGL (Mesa's llvmpipe software rasteriser on machines without a GPU), or
 // into a window whose context the caller made current (nephos view, GLFW). One instanced draw call draws every sprite:
-// camera-facing quads from a texture array baked from nephos's own 3D fractal density, sorted
+// camera-facing billboards from a texture array baked from nephos's own 3D fractal density,
+// each drawn over the octagon of its texture's non-transparent texels (SpriteTrim), sorted
 // back to front, premultiplied-alpha blended, shaded on the CPU per sprite (MSFS 2004: five
 // height colour levels, a directional term per shading group, a time-of-day ambient factor).
 #include <array>
