@@ -126,7 +126,12 @@ uniform vec3 cam_up;
 out vec3 v_uvl;
 out vec4 v_colour;
 out vec3 v_diffuse;
-out vec3 v_bend;
+#ifdef BENT_NORMAL
+uniform vec3 sun_dir;  // towards the sun
+uniform vec3 cam_front;
+out vec3 v_bend;      // the unnormalised bent normal
+out float v_bend_sun; // its dot product with the sun direction
+#endif
 #ifdef LAYER_PAIR
 out vec4 v_far;  // the farther layer: texture coordinates [tiles], position [its half-widths]
 #endif
@@ -154,7 +159,17 @@ void main() {
   v_uvl = vec3(layer_tiles.y > 0.0 ? uv * layer_tiles.y + diffuse.xy : uv, layer_tiles.x);
   v_colour = colour_alpha;
   v_diffuse = diffuse;
-  v_bend = corner.x * ax + corner.y * ay;  // fragment - billboard centre, in half-sizes
+#ifdef BENT_NORMAL
+  // Thesis B.7: the billboard normal, turned to the sun's side of the view, bent outwards by
+  // the fragment's offset from the centre (in half-sizes). Both it and its dot product with the
+  // sun are affine in the corner, so they interpolate exactly and the fragment only normalises.
+  v_bend = (dot(cam_front, sun_dir) < 0.0 ? -cam_front : cam_front) + 0.5 * (corner.x * ax + corner.y * ay);
+  v_bend_sun = dot(v_bend, sun_dir);
+  // The wrapped diffuse term d (n.l + 1) / 2 as (d / 2) + (d / 2) n.l: the constant half joins
+  // the colour here instead of in every fragment.
+  v_diffuse = 0.5 * diffuse;
+  v_colour.rgb += v_diffuse;
+#endif
 #ifdef LAYER_PAIR
   // The view ray through this point of the nearer sheet meets the farther one, k times as far
   // above (below) the camera, at k times the horizontal offset: an affine map of the corner, so
@@ -166,12 +181,13 @@ void main() {
 )";
 const char* fragment_body = R"(
 uniform highp sampler2DArray sprites;
-uniform vec3 sun_dir;    // towards the sun
-uniform vec3 cam_front;
 in vec3 v_uvl;
 in vec4 v_colour;
 in vec3 v_diffuse;
+#ifdef BENT_NORMAL
 in vec3 v_bend;
+in float v_bend_sun;
+#endif
 #ifdef LAYER_PAIR
 in vec4 v_far;
 #endif
@@ -180,11 +196,8 @@ void main() {
   vec4 t = texture(sprites, v_uvl);  // premultiplied
   vec3 c = v_colour.rgb;
 #ifdef BENT_NORMAL
-  // Sprites only: thesis B.7, the billboard normal, turned to the sun's side of the view, bent
-  // outwards by the fragment's offset from the centre; wrapped diffuse (n.l + 1) / 2.
-  vec3 n = dot(cam_front, sun_dir) < 0.0 ? -cam_front : cam_front;
-  n = normalize(n + 0.5 * v_bend);
-  c = min(c + v_diffuse * (0.5 * (dot(n, sun_dir) + 1.0)), vec3(1.0));
+  // Sprites only: the wrapped diffuse term of the normalised bent normal (see the vertex shader).
+  c = min(c + v_diffuse * (v_bend_sun * inversesqrt(dot(v_bend, v_bend))), vec3(1.0));
 #endif
   frag = vec4(t.rgb * c, t.a) * v_colour.a;
 #ifdef LAYER_PAIR
