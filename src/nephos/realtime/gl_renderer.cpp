@@ -832,16 +832,19 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   m.locked = std::move(locked);
   stats.locked_sprites = m.locked.size();
 
-  // Draws: the sky and the ring (one per impostor set: each set is its own texture array), the
-  // flat layers, then every sprite in one instanced call (the layers without the sprites'
-  // bent-normal term).
+  // Draws: the sky, the flat layers, the ring (one draw per impostor set: each set is its own
+  // texture array), then every sprite in one instanced call (the layers without the sprites'
+  // bent-normal term). The ring holds sprite clouds, so it goes where the sprites go: in front
+  // of the flat layers, as when every cloud is drawn as sprites (a distant cumulus top in
+  // front of an overcast deck above the horizon).
   const Target target = screen(cam, sun);
   const std::size_t rings = ring_quads[0] + ring_quads[1];
-  submit(target, 0, ring_quads[0], m.imp_tex[m.front], true, Shading::plain);
-  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, Shading::plain);
+  submit(target, 0, 0, m.texture, true, Shading::plain);  // the sky
   std::size_t first = rings;
   for (const auto& [shading, count] : layer_runs)
     submit(target, first, count, m.texture, false, shading), first += count;
+  submit(target, 0, ring_quads[0], m.imp_tex[m.front], false, Shading::plain);
+  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, Shading::plain);
   submit(target, first, m.buffer.size() / 17 - first, m.texture, false, Shading::bent_normal);
   glFinish();
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
