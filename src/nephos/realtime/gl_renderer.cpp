@@ -3,6 +3,7 @@
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <GLES3/gl3.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
@@ -135,6 +136,11 @@ uniform vec3 cam_front;
 out vec3 v_bend;      // the unnormalised bent normal
 out float v_bend_sun; // its dot product with the sun direction
 #endif
+#ifdef SHEET
+out vec2 v_rel;        // position relative to the camera on the (nearer) sheet [tiles]
+flat out vec4 v_fade;  // distance fade: nearer sheet's scale [1/tiles^2], offset, farther sheet's
+                       // scale; 1 / the sheet's half-width^2 [1/tiles^2]
+#endif
 #ifdef LAYER_PAIR
 out vec4 v_far;  // the farther layer: texture coordinates [tiles], position [its half-widths]
 #endif
@@ -174,6 +180,13 @@ void main() {
   v_diffuse = 0.5 * diffuse;
   v_colour.rgb += v_diffuse;
 #endif
+#ifdef SHEET
+  // Flat layers: facing_aspect.yz hold the distance fade's scale and offset (see the fragment
+  // shader), facing_aspect.x the farther sheet's height ratio (a pair; its pixel footprint in
+  // texels is that many times the nearer sheet's at the same pixel).
+  v_rel = (uv - 0.5) * layer_tiles.y;
+  v_fade = vec4(facing_aspect.y, facing_aspect.z, facing_aspect.y * facing_aspect.x, 4.0 / (layer_tiles.y * layer_tiles.y));
+#endif
 #ifdef LAYER_PAIR
   // The view ray through this point of the nearer sheet meets the farther one, k times as far
   // above (below) the camera, at k times the horizontal offset: an affine map of the corner, so
@@ -193,12 +206,31 @@ flat in vec3 v_diffuse;
 in vec3 v_bend;
 in float v_bend_sun;
 #endif
+#ifdef SHEET
+in vec2 v_rel;
+flat in vec4 v_fade;
+#endif
 #ifdef LAYER_PAIR
 in vec4 v_far;
 #endif
 out vec4 frag;
 void main() {
+#ifdef SHEET
+  // Flat layers. Their texture is premultiplied white (r = g = b = a), so its alpha is all it
+  // holds: one channel fetched spares llvmpipe unpacking the other three. Far out on a sheet a
+  // pixel spans many texels and the unfiltered texture aliases (moire at the horizon; mipmaps
+  // would add 1-2 ms to a frame on llvmpipe, measured). The footprint in texels grows as the
+  // squared distance, so the texel fades to the texture's mean from 1 to 4 texels per pixel:
+  // a smooth deck towards the horizon, as a filtered texture would show. And the sheet, a
+  // finite square, fades out radially from 0.3 of its half-width to its edge, so that the deck
+  // dissolves into the sky near the horizon instead of ending at a hard line.
+  float d2 = dot(v_rel, v_rel);
+  float a = mix(texture(sprites, vec3(v_uv, v_layer)).a, SHEET_MEAN, clamp(d2 * v_fade.x - v_fade.y, 0.0, 1.0)) *
+            clamp((1.0 - d2 * v_fade.w) * EDGE_FADE, 0.0, 1.0);
+  vec4 t = vec4(a);
+#else
   vec4 t = texture(sprites, vec3(v_uv, v_layer));  // premultiplied
+#endif
   vec3 c = v_colour.rgb;
 #ifdef BENT_NORMAL
   // Sprites only: the wrapped diffuse term of the normalised bent normal (see the vertex shader).
@@ -206,11 +238,12 @@ void main() {
 #endif
   frag = vec4(t.rgb * c, t.a) * v_colour.a;
 #ifdef LAYER_PAIR
-  // The farther sheet behind the nearer one, where it reaches (within its half-width): the two
-  // "over" blends of separate passes, composited here and blended into the frame once.
-  float far_alpha = max(abs(v_far.z), abs(v_far.w)) <= 1.0 ? v_diffuse.z : 0.0;
-  vec4 t_far = texture(sprites, vec3(v_far.xy, v_layer));
-  frag += (1.0 - frag.a) * vec4(t_far.rgb * c, t_far.a) * far_alpha;
+  // The farther sheet behind the nearer one (faded alike; its footprint and its position in its
+  // half-widths are k times the nearer one's): the two "over" blends of separate passes,
+  // composited here and blended into the frame once.
+  float a_far = mix(texture(sprites, vec3(v_far.xy, v_layer)).a, SHEET_MEAN, clamp(d2 * v_fade.z - v_fade.y, 0.0, 1.0)) *
+                clamp((1.0 - dot(v_far.zw, v_far.zw)) * EDGE_FADE, 0.0, 1.0) * v_diffuse.z;
+  frag += (1.0 - frag.a) * vec4(a_far * c, a_far);
 #endif
 }
 )";
@@ -251,7 +284,7 @@ struct SpriteRenderer::Impl {
     GLuint id = 0;
     GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1, u_trim = -1;
   };
-  Program lit, plain, layer_pair;
+  Program lit, plain, sheet, layer_pair;
   bool merge_layers = true;                      // draw two flat layers of a type in one pass (set_merge_flat_layers)
   bool trim_sprites = true;                      // sprites cover their layer's octagon (set_trim_sprites)
   std::array<float, 3 * texture_layers> trim{};  // SpriteTrim per texture layer (a, b, c)
@@ -411,11 +444,20 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
     p.u_front = glGetUniformLocation(p.id, "cam_front");
     p.u_trim = glGetUniformLocation(p.id, "trim");
   };
+  const auto pixels = bake_sprites(seed);
+  // The sheet texture's mean premultiplied texel (white: all four channels alike), the value a
+  // fully filtered lookup converges to far out on a sheet.
+  double sheet_mean = 0;
+  for (int k = 0; k < tex_size * tex_size; ++k)
+    sheet_mean += pixels[(static_cast<std::size_t>(sheet_layer) * tex_size * tex_size + k) * 4 + 3];
+  sheet_mean /= 255.0 * tex_size * tex_size;
+  const std::string sheet = "#define SHEET 1\n#define SHEET_MEAN " + fmt::format("{:.9g}", sheet_mean) +
+                            "\n#define EDGE_FADE " + fmt::format("{:.9g}", 1 / (1 - 0.3 * 0.3)) + "\n";
   link(m.lit, "#define BENT_NORMAL 1\n");
   link(m.plain, "");
-  link(m.layer_pair, "#define LAYER_PAIR 1\n");
+  link(m.sheet, sheet);
+  link(m.layer_pair, sheet + "#define LAYER_PAIR 1\n");
 
-  const auto pixels = bake_sprites(seed);
   for (int l = 0; l < texture_layers; ++l) {
     const SpriteTrim t = sprite_trim(pixels.data() + static_cast<std::size_t>(l) * tex_size * tex_size * 4, tex_size);
     m.trim[3 * l] = t.a, m.trim[3 * l + 1] = t.b, m.trim[3 * l + 2] = t.c;
@@ -520,6 +562,7 @@ void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // premultiplied alpha
   const Impl::Program& p = shading == Shading::bent_normal  ? m.lit
                            : shading == Shading::layer_pair ? m.layer_pair
+                           : shading == Shading::sheet      ? m.sheet
                                                             : m.plain;
   glUseProgram(p.id);
   glUniformMatrix4fv(p.u_view_proj, 1, GL_FALSE, &vp[0][0]);
@@ -754,9 +797,18 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       const double u = cam_air.x / st.tile_m, v = -cam_air.y / st.tile_m;
       const double far_alpha = behind ? style(*behind).alpha : 0.0;
       const double far_ratio = behind ? (behind->altitude_m - cam.position.z) / (l->altitude_m - cam.position.z) : 0.0;
+      // Distance fade (fragment shader): a pixel's footprint along the view on a sheet dh below or
+      // above the camera, at horizontal distance D, is D^2 theta / |dh| (theta: the pixel's angle)
+      // or D_tiles^2 tile_m theta / |dh| in tiles; in texels times tex_size. The texel fades
+      // to the mean from fade_from to fade_to texels per pixel: fade = D_tiles^2 scale - offset.
+      constexpr double fade_from = 1, fade_to = 4;
+      const double theta = 2 * std::tan(0.5 * cam.fov_deg * M_PI / 180) / h_;
+      const double scale = st.tile_m * tex_size * theta /
+                           (std::max(std::abs(l->altitude_m - cam.position.z), 1.0) * (fade_to - fade_from));
       push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, st.colour, st.alpha, sheet_layer,
-                    size / st.tile_m, {u - std::floor(u), v - std::floor(v), far_alpha}, {far_ratio, 0, 0}, 1.0);
-      const Shading shading = behind ? Shading::layer_pair : Shading::plain;
+                    size / st.tile_m, {u - std::floor(u), v - std::floor(v), far_alpha},
+                    {far_ratio, scale, fade_from / (fade_to - fade_from)}, 1.0);
+      const Shading shading = behind ? Shading::layer_pair : Shading::sheet;
       if (layer_runs.empty() || layer_runs.back().first != shading) layer_runs.push_back({shading, 0});
       ++layer_runs.back().second;
     }

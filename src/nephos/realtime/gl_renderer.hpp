@@ -126,9 +126,10 @@ class SpriteRenderer {
     glm::dvec3 sun{0, 0, 1};
   };
   Target screen(const Camera& camera, const SunLight& sun) const;
-  /// Which shader a draw uses: flat (impostor quads, single flat layers, particles), sprites with
-  /// the bent-normal diffuse term, or two flat layers of one type composited in one pass.
-  enum class Shading { plain, bent_normal, layer_pair };
+  /// Which shader a draw uses: flat (impostor quads, particles), sprites with the bent-normal
+  /// diffuse term, a flat layer (faded to its mean far out), or two flat layers of one type
+  /// composited in one pass.
+  enum class Shading { plain, bent_normal, sheet, layer_pair };
   /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
   void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
               Shading shading);
