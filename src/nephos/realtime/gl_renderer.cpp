@@ -387,6 +387,12 @@ SpriteRenderer::SpriteRenderer(UseCurrentContext, int width, int height, std::ui
   init_gl(seed);
 }
 
+namespace {
+// Headless renderers alive: they share the EGL display (EGL hands out one per device), which
+// eglTerminate would pull from under the others, so the last one terminates it.
+int live_headless_renderers = 0;
+}  // namespace
+
 void SpriteRenderer::create_context() {
   auto& m = *impl_;
   auto get_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
@@ -410,6 +416,13 @@ void SpriteRenderer::create_context() {
   if (m.ctx == EGL_NO_CONTEXT || !eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, m.ctx))
     throw IoError(desktop ? "EGL: cannot create an OpenGL 3.3 core context"
                           : "EGL: cannot create an OpenGL ES 3.0 context");
+  ++live_headless_renderers;
+}
+
+void SpriteRenderer::make_current() {
+  auto& m = *impl_;
+  if (m.dpy != EGL_NO_DISPLAY && !eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, m.ctx))
+    throw IoError("EGL: eglMakeCurrent failed for a sprite renderer's context");
 }
 
 void SpriteRenderer::init_gl(std::uint64_t seed) {
@@ -524,9 +537,10 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
 SpriteRenderer::~SpriteRenderer() {
   auto& m = *impl_;
   if (m.dpy != EGL_NO_DISPLAY) {
-    eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    // Released only if it is this renderer's: another renderer's context may be current.
+    if (eglGetCurrentContext() == m.ctx) eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     if (m.ctx != EGL_NO_CONTEXT) eglDestroyContext(m.dpy, m.ctx);
-    eglTerminate(m.dpy);
+    if (m.ctx != EGL_NO_CONTEXT && --live_headless_renderers == 0) eglTerminate(m.dpy);
   }
 }
 

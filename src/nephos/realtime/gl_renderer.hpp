@@ -71,6 +71,10 @@ class SpriteRenderer {
   struct UseCurrentContext {};
   SpriteRenderer(UseCurrentContext, int width, int height, std::uint64_t seed, GlApi api);
   ~SpriteRenderer();
+  /// Makes this renderer's context current: several headless renderers in one thread take
+  /// turns, each draw preceded by its renderer's make_current() (a no-op for a window's
+  /// context, which the caller manages). Throws IoError if EGL refuses.
+  void make_current();
   SpriteRenderer(const SpriteRenderer&) = delete;
   SpriteRenderer& operator=(const SpriteRenderer&) = delete;
 

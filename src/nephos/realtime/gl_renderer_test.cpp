@@ -40,6 +40,40 @@ TEST(SpriteRendererGl, NamesItsContext) {
   EXPECT_NE(es.gl_version().find("OpenGL ES 3."), std::string::npos) << es.gl_version();
 }
 
+TEST(SpriteRendererGl, HeadlessRenderersTakeTurnsInOneThread) {
+  // Two renderers in one thread (the paired benchmark): each draw preceded by its renderer's
+  // make_current() gives the frames each would draw alone, and destroying one leaves the other
+  // working (they share the EGL display, which only the last one terminates).
+  const CloudField field(recipe_from_code(parse_weather_code("d300")), 4, {0, 0, 2400});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera a_cam{{0, 0, 2400}, {1, 0, -0.05}, {0, 0, 1}, 60}, b_cam{{0, 0, 2400}, {0, 1, 0.2}, {0, 0, 1}, 60};
+  std::vector<std::uint8_t> alone;
+  {
+    SpriteRenderer a(96, 64, 4);
+    a.draw(field, a_cam, sun, true, true);
+    alone = a.read_pixels();
+  }
+  SpriteRenderer a(96, 64, 4);
+  std::vector<std::uint8_t> turns[2];
+  {
+    SpriteRenderer b(96, 64, 4);
+    for (int k = 0; k < 2; ++k) {
+      a.make_current();
+      a.draw(field, a_cam, sun, true, true);
+      turns[k] = a.read_pixels();
+      b.make_current();
+      b.draw(field, b_cam, sun, true, false);
+      EXPECT_GT(frame_diff(turns[k], b.read_pixels(), 20).over, 100u) << "b draws its own view";
+    }
+  }  // b destroyed while a lives
+  a.make_current();
+  a.draw(field, a_cam, sun, true, true);
+  EXPECT_EQ(frame_diff(alone, turns[0], 0).max, 0);
+  EXPECT_EQ(frame_diff(alone, turns[1], 0).max, 0);
+  EXPECT_EQ(frame_diff(alone, a.read_pixels(), 0).max, 0);
+  EXPECT_GT(frame_diff(alone, alone, 0).from_sky, 20) << "clouds in view";
+}
+
 TEST(SpriteRendererGl, FacingLocksWithinHalfASpritesRadiusAndReleasesOutside) {
   // Seed 004 (MSFS 2004): a sprite whose centre the camera is within half its radius of stops
   // turning to face the camera. Headless EGL (Mesa llvmpipe), 64 x 64 frames.
