@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -390,7 +391,7 @@ SpriteRenderer::SpriteRenderer(UseCurrentContext, int width, int height, std::ui
 namespace {
 // Headless renderers alive: they share the EGL display (EGL hands out one per device), which
 // eglTerminate would pull from under the others, so the last one terminates it.
-int live_headless_renderers = 0;
+std::atomic<int> live_headless_renderers{0};
 }  // namespace
 
 void SpriteRenderer::create_context() {
