@@ -155,7 +155,8 @@ class Render(unittest.TestCase):
         ds = xr.open_dataset(self.out / "render.nc")
         self.assertEqual(ds.attrs["Conventions"], "CF-1.8")
         for v in ("radiance_vis", "radiance_nir", "radiance_lwir", "brightness_temperature_lwir",
-                  "cloud_top_altitude", "cloud_optical_depth", "cloud_type", "latitude", "longitude"):
+                  "cloud_top_altitude", "cloud_optical_depth", "cloud_fraction", "cloud_type", "latitude",
+                  "longitude"):
             self.assertIn(v, ds.variables)
             self.assertEqual(ds[v].dims, ("y", "x"))
         self.assertEqual(ds["cloud_top_altitude"].attrs["units"], "m")
@@ -171,6 +172,9 @@ class Render(unittest.TestCase):
         cloudy = ~np.isnan(top)
         self.assertGreater(cloudy.sum(), 200)
         self.assertTrue(np.all((top[cloudy] >= 0) & (top[cloudy] <= 10000)))  # within the Table 1 shells
+        # One ray per pixel: the cloud fraction is 1 exactly where a cloud top was found, else 0.
+        self.assertTrue(np.array_equal(ds["cloud_fraction"].values, cloudy.astype(np.float32)))
+        self.assertEqual(ds.attrs["rays_per_pixel"], 1)
         # Cold cloud tops: brightness temperature below the clear-sky surface's (~>270 K tropics).
         self.assertLess(np.nanmedian(np.where(cloudy, bt, np.nan)), np.nanmedian(np.where(earth & ~cloudy, bt, np.nan)))
 
@@ -200,7 +204,7 @@ class Render(unittest.TestCase):
             out = Path(d) / "out"
             for args, needle in ((["--sensor", "geo:east"], "--sensor"), (["--size", "12by4"], "--size"),
                                  (["--types", "nimbus"], "nimbus"), (["--bands", "uv"], "uv"),
-                                 (["--time", "tomorrow"], "tomorrow")):
+                                 (["--time", "tomorrow"], "tomorrow"), (["--samples", "5"], "--samples")):
                 r = run("render", *args, "--out", out)
                 self.assertEqual(r.returncode, 2, args)
                 self.assertIn(needle, r.stderr)

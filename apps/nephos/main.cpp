@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -92,6 +93,7 @@ struct RenderOptions {
   std::string types = "low_stratus,low_cumulus,altostratus,cirrus";
   std::string bands = "vis,nir,lwir";
   int steps = 25;
+  int samples = 1;  // rays per pixel, k^2
   int texture = 256;
   double displace_hours = -1;  // < 0: per-type defaults
   double advance_hours = 0;
@@ -183,6 +185,10 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   rp.bands = split(o.bands, "--bands");
   for (const auto& b : rp.bands) optics::band(b);
   if (o.steps < 1 || o.steps > 10000) throw ValueError("must be 1..10000", {.key = "--steps"});
+  rp.samples_per_axis = static_cast<int>(std::lround(std::sqrt(std::max(o.samples, 0))));
+  if (o.samples < 1 || o.samples > 256 || rp.samples_per_axis * rp.samples_per_axis != o.samples)
+    throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", o.samples),
+                     {.key = "--samples"});
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   clouds::CloudModelParams cp;
   weather::MaskParams mp;
@@ -222,6 +228,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
                                g.seed,
                                o.steps,
                                o.texture,
+                               o.samples,
                                {}};
     for (auto t : types) meta.types.emplace_back(weather::name(t));
     render::write_render_netcdf(dir / "render.nc", img, meta);
@@ -230,8 +237,8 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     std::string summary;
     for (const auto& [name, secs] : img.seconds_per_type) summary += fmt::format(" {} {:.0f} ms,", name, secs * 1e3);
     if (!summary.empty()) summary.pop_back();
-    std::cout << fmt::format("frame {}: {}x{} px, {} steps, texture {}^3:{} ({})\n", frame, width, height, o.steps,
-                             o.texture, summary, threads_text());
+    std::cout << fmt::format("frame {}: {}x{} px, {} ray{} per pixel, {} steps, texture {}^3:{} ({})\n", frame, width,
+                             height, o.samples, o.samples == 1 ? "" : "s", o.steps, o.texture, summary, threads_text());
   }
   spdlog::info("wrote {} in {:.1f} s", out.string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
@@ -677,6 +684,9 @@ int main(int argc, char** argv) {
   rend->add_option("--types", ro.types, "Cloud types, comma-separated")->capture_default_str();
   rend->add_option("--bands", ro.bands, "Bands: vis, nir, lwir")->capture_default_str();
   rend->add_option("--steps", ro.steps, "Ray-marching steps per shell")->capture_default_str();
+  rend->add_option("--samples", ro.samples,
+                   "Rays per pixel, a square k^2 (1, 4, 9, ... 256): the mean of a k x k sub-pixel grid")
+      ->capture_default_str();
   rend->add_option("--texture", ro.texture, "Fractal texture size N (N^3 voxels, power of two)")->capture_default_str();
   rend->add_option("--displace-hours", ro.displace_hours, "Wind displacement of all fractals [h] (default: per type)");
   rend->add_option("--advance-hours", ro.advance_hours, "Propagate the displacement maps by H hours (per frame)");

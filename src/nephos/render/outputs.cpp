@@ -56,6 +56,8 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
                             "cloud_top_altitude");
   const int tau = float_var("cloud_optical_depth", "1", "visible (0.64 um) cloud optical depth along the line of sight",
                             "atmosphere_optical_thickness_due_to_cloud");
+  const int fraction = float_var("cloud_fraction", "1", "share of the pixel's rays (sub-pixel samples) that meet cloud",
+                                 "cloud_area_fraction");
   const int type = nc.add_variable("cloud_type", io::NcType::i8, dims);
   nc.put_attribute_i8(type, "_FillValue", {-1});
   nc.put_attribute(type, "long_name", "type of the nearest cloud surface");
@@ -72,6 +74,7 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
   nc.put_attribute(io::NetcdfWriter::global, "seed", static_cast<double>(meta.seed));
   nc.put_attribute(io::NetcdfWriter::global, "ray_marching_steps", static_cast<double>(meta.steps));
   nc.put_attribute(io::NetcdfWriter::global, "texture_size", static_cast<double>(meta.texture_size));
+  nc.put_attribute(io::NetcdfWriter::global, "rays_per_pixel", static_cast<double>(meta.rays_per_pixel));
   std::string types;
   for (const auto& t : meta.types) types += (types.empty() ? "" : " ") + t;
   nc.put_attribute(io::NetcdfWriter::global, "cloud_types", types);
@@ -84,6 +87,7 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
   }
   nc.write(top, img.cloud_top_altitude_m.data());
   nc.write(tau, img.cloud_optical_depth.data());
+  nc.write(fraction, img.cloud_fraction.data());
   nc.write(type, img.cloud_type.data());
   nc.close();
 }
@@ -105,6 +109,7 @@ void write_render_exr(const std::filesystem::path& path, const RenderImage& img)
     }
     add("cloud_top_altitude", img.cloud_top_altitude_m);
     add("cloud_optical_depth", img.cloud_optical_depth);
+    add("cloud_fraction", img.cloud_fraction);
     // Compressed by OpenEXR's own thread pool, one thread per OpenMP thread: the ZIP blocks of
     // 16 scan lines are independent, and the file's bytes do not depend on the thread count.
     if (Imf::globalThreadCount() < thread_count()) Imf::setGlobalThreadCount(thread_count());

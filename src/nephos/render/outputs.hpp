@@ -14,6 +14,7 @@ struct FrameMetadata {
   double sun_subsolar_lat_deg = 0, sun_subsolar_lon_deg = 0;
   std::uint64_t seed = 0;
   int steps = 0, texture_size = 0;
+  int rays_per_pixel = 1;
   std::vector<std::string> types;
 };
 

@@ -1,5 +1,7 @@
 #include "nephos/render/renderer.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -290,8 +292,12 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   }
 }
 
-RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
-                   const RenderParams& params, const weather::WeatherGrid* weather) {
+namespace {
+
+// One ray per pixel, through the point (x + dx, y + dy) of pixel (x, y).
+RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
+                      const RenderParams& params, const weather::WeatherGrid* weather, double dx, double dy,
+                      Progress& progress) {
   const int w = sensor.width, h = sensor.height;
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   const std::size_t nb = params.bands.size();
@@ -315,6 +321,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   img.cloud_top_altitude_m.assign(npx, nanf);
   img.cloud_optical_depth.assign(npx, 0.0f);
   img.cloud_type.assign(npx, -1);
+  img.cloud_fraction.assign(npx, 0.0f);
   img.latitude_deg.assign(npx, nanf);
   img.longitude_deg.assign(npx, nanf);
 
@@ -323,7 +330,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < h; ++y) {
     std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    sensor.row_rays(y, dirs.data());
+    sensor.row_rays(y, dirs.data(), dx, dy);
     for (int x = 0; x < w; ++x) {
       const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
       const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
@@ -335,7 +342,6 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   // One pass per cloud type, each timed; layers kept for compositing.
   const std::size_t ns = scene.shells.size();
   std::vector<Layer> layers(npx * ns);
-  Progress progress("render", static_cast<std::size_t>(h) * ns);
   for (std::size_t si = 0; si < ns; ++si) {
     const clouds::CloudShell& shell = scene.shells[si];
     const auto t0 = std::chrono::steady_clock::now();
@@ -352,7 +358,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
       std::vector<double> t_max(static_cast<std::size_t>(w));
       std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-      sensor.row_rays(y, dirs.data());
+      sensor.row_rays(y, dirs.data(), dx, dy);
       for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
       march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
                   params.bisection_iterations, row_hits.data());
@@ -401,7 +407,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
     std::vector<std::size_t> order(ns);
     for (int x = 0; x < w; ++x) {
       const std::size_t px = static_cast<std::size_t>(y) * w + x;
-      const earth::Vec3 d = sensor.ray(x + 0.5, y + 0.5);
+      const earth::Vec3 d = sensor.ray(x + dx, y + dy);
       std::array<double, 3> bg{0, 0, 0};
       if (std::isfinite(t_earth[px])) {
         const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[px]) * d;
@@ -427,6 +433,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
         const Layer& L = pl[order[s]];
         if (!std::isfinite(L.t)) break;
         if (s == 0) {
+          img.cloud_fraction[px] = 1;
           img.cloud_top_altitude_m[px] = L.altitude;
           img.cloud_type[px] = static_cast<std::int8_t>(scene.shells[order[s]].type());
           const earth::Geodetic g = earth::geodetic(sensor.position + static_cast<double>(L.t) * d);
@@ -449,6 +456,83 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
 #pragma omp parallel for schedule(static)
     for (std::size_t px = 0; px < npx; ++px)
       img.brightness_temperature[b][px] = static_cast<float>(planck[b].inverse(img.radiance[b][px]));
+  }
+  return img;
+}
+
+}  // namespace
+
+RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
+                   const RenderParams& params, const weather::WeatherGrid* weather) {
+  const int k = params.samples_per_axis;
+  if (k < 1 || k > 16)
+    throw ValueError(fmt::format("samples per pixel must be k^2 with k = 1..16, got k = {}", k), {.key = "--samples"});
+  Progress progress("render", static_cast<std::size_t>(sensor.height) * scene.shells.size() *
+                                  static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
+  if (k == 1) return render_at(scene, sensor, sun, params, weather, 0.5, 0.5, progress);
+  // k x k sub-pixel rays per pixel, one whole image each, summed in a fixed order (the result
+  // does not depend on the thread count).
+  const std::size_t npx = static_cast<std::size_t>(sensor.width) * static_cast<std::size_t>(sensor.height);
+  const std::size_t nb = params.bands.size();
+  std::vector<std::vector<double>> radiance(nb, std::vector<double>(npx, 0.0));
+  std::vector<double> tau(npx, 0.0), top(npx, 0.0);
+  std::vector<std::uint16_t> cloudy(npx, 0);
+  std::vector<std::array<std::uint16_t, weather::cloud_type_count>> type_count(npx);
+  RenderImage img;
+  const int centre = k / 2;  // the sub-pixel nearest the centre (the centre for odd k)
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      RenderImage sub = render_at(scene, sensor, sun, params, weather, (i + 0.5) / k, (j + 0.5) / k, progress);
+#pragma omp parallel for schedule(static)
+      for (std::size_t px = 0; px < npx; ++px) {
+        for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
+        tau[px] += sub.cloud_optical_depth[px];
+        const std::int8_t t = sub.cloud_type[px];
+        if (t >= 0) {
+          ++cloudy[px];
+          top[px] += sub.cloud_top_altitude_m[px];
+          ++type_count[px][static_cast<std::size_t>(t)];
+        }
+      }
+      if (i == centre && j == centre) {
+        img.latitude_deg = std::move(sub.latitude_deg);
+        img.longitude_deg = std::move(sub.longitude_deg);
+      }
+      if (img.seconds_per_type.empty()) {
+        img.seconds_per_type = sub.seconds_per_type;
+      } else {
+        for (std::size_t t = 0; t < img.seconds_per_type.size(); ++t)
+          img.seconds_per_type[t].second += sub.seconds_per_type[t].second;
+      }
+    }
+  const double inv_n = 1.0 / (k * k);
+  img.width = sensor.width;
+  img.height = sensor.height;
+  img.bands = params.bands;
+  img.radiance.assign(nb, std::vector<float>(npx));
+  img.brightness_temperature.assign(nb, {});
+  img.cloud_top_altitude_m.assign(npx, nanf);
+  img.cloud_optical_depth.resize(npx);
+  img.cloud_type.assign(npx, -1);
+  img.cloud_fraction.resize(npx);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const optics::Band& band = optics::band(params.bands[b]);
+    const PlanckTable planck(band);
+    if (band.thermal) img.brightness_temperature[b].resize(npx);
+#pragma omp parallel for schedule(static)
+    for (std::size_t px = 0; px < npx; ++px) {
+      img.radiance[b][px] = static_cast<float>(radiance[b][px] * inv_n);
+      if (band.thermal) img.brightness_temperature[b][px] = static_cast<float>(planck.inverse(img.radiance[b][px]));
+    }
+  }
+#pragma omp parallel for schedule(static)
+  for (std::size_t px = 0; px < npx; ++px) {
+    img.cloud_optical_depth[px] = static_cast<float>(tau[px] * inv_n);
+    img.cloud_fraction[px] = static_cast<float>(cloudy[px] * inv_n);
+    if (cloudy[px] == 0) continue;
+    img.cloud_top_altitude_m[px] = static_cast<float>(top[px] / cloudy[px]);
+    const auto& c = type_count[px];
+    img.cloud_type[px] = static_cast<std::int8_t>(std::max_element(c.begin(), c.end()) - c.begin());
   }
   return img;
 }

@@ -23,6 +23,9 @@ struct RenderParams {
   double indirect_fraction = 0.3;         ///< share of scattered sunlight re-emitted diffusely by all facets
   double surface_albedo = 0.06;           ///< Lambertian albedo of the ground in solar bands (dark ocean)
   double surface_temperature_k = 288.15;  ///< used where the weather gives none
+  /// k: each pixel is sampled on a k x k grid of sub-pixel rays (--samples k^2, 1..16 per
+  /// axis) and its radiance is their mean, the detector's integral over its footprint.
+  int samples_per_axis = 1;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
 };
 
@@ -35,6 +38,7 @@ struct RenderImage {
   std::vector<float> cloud_top_altitude_m;                 ///< nearest cloud surface; NaN where none
   std::vector<float> cloud_optical_depth;                  ///< visible optical depth along the line of sight, all types
   std::vector<std::int8_t> cloud_type;                     ///< nearest type (0..3), -1 none
+  std::vector<float> cloud_fraction;                       ///< share of the pixel's rays that meet cloud
   std::vector<float> latitude_deg, longitude_deg;          ///< nearest cloud or Earth point; NaN for space
   std::vector<std::pair<std::string, double>> seconds_per_type;
 };
@@ -56,7 +60,13 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
                  std::size_t n, int steps, int bisection_iterations, ShellHit* hits);
 
 /// Renders all shells of `scene` from `sensor`. `weather` (optional) gives the surface
-/// temperature for the thermal background.
+/// temperature for the thermal background. With params.samples_per_axis = k > 1 every pixel
+/// is the mean of k x k rays through the centres of a k x k grid of sub-pixels (the area
+/// average of the image rendered k times finer): radiance and optical depth are their means
+/// (brightness temperature is that of the mean radiance), cloud_fraction the share of them
+/// that meet cloud, cloud_top_altitude the mean over those, cloud_type the most frequent type
+/// among them (the lower type number on a tie), and latitude/longitude those of the sub-pixel
+/// ray nearest the pixel centre (the centre itself for odd k).
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                    const RenderParams& params, const weather::WeatherGrid* weather = nullptr);
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/weather/reader.hpp"
 
@@ -212,6 +213,66 @@ TEST(RendererOnGfs, GeoAndLeoSeeTheSameCloudTops) {
   // Most points agree within one step; the rest are where the two rays graze different
   // bumps of a 3D surface.
   EXPECT_GT(static_cast<double>(within) / compared, 0.85) << within << " / " << compared;
+}
+
+}  // namespace nephos::render
+
+namespace nephos::render {
+
+TEST(RendererOnGfs, SupersampledPixelsAreTheAreaAverageOfTheFinerImage) {
+  // k x k rays per pixel through the centres of a k x k sub-pixel grid are exactly the rays of
+  // the image rendered k times finer (the sensor's pixel (x, y) at (X + (i + 0.5) / k) / width
+  // is the fine pixel k X + i's centre), so each supersampled pixel must be the mean of its
+  // k x k block of the fine image: radiance to float rounding (the mean is summed in double
+  // from the same floats: relative 1e-6), the cloud fraction and optical depth alike, the
+  // brightness temperature that of the mean radiance. And the area average differs from the
+  // point sample at the pixel centre where sub-pixel cloud edges are (the aliasing it removes).
+  const auto& r = real();
+  constexpr int n = 24, k = 3;
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  RenderParams fine_params, coarse_params;
+  coarse_params.samples_per_axis = k;
+  const RenderImage fine = render(r.scene, Sensor::geostationary(-75.2, n * k, n * k), sun, fine_params, &r.w);
+  const RenderImage coarse = render(r.scene, Sensor::geostationary(-75.2, n, n), sun, coarse_params, &r.w);
+  const RenderImage point = render(r.scene, Sensor::geostationary(-75.2, n, n), sun, fine_params, &r.w);
+  std::size_t partly_cloudy = 0, differs_from_point = 0;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const std::size_t px = static_cast<std::size_t>(y) * n + x;
+      std::vector<double> rad(fine.radiance.size(), 0.0);
+      double fraction = 0, tau = 0;
+      for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+          const std::size_t f = static_cast<std::size_t>(k * y + j) * (n * k) + static_cast<std::size_t>(k * x + i);
+          for (std::size_t b = 0; b < rad.size(); ++b) rad[b] += fine.radiance[b][f] / (k * k);
+          fraction += (fine.cloud_type[f] >= 0 ? 1.0 : 0.0) / (k * k);
+          tau += fine.cloud_optical_depth[f] / (k * k);
+        }
+      for (std::size_t b = 0; b < rad.size(); ++b) {
+        EXPECT_NEAR(coarse.radiance[b][px], rad[b], 1e-6 * std::abs(rad[b]) + 1e-12) << "band " << b << " px " << px;
+        differs_from_point += std::abs(point.radiance[b][px] - rad[b]) > 1e-3 * std::abs(rad[b]);
+      }
+      EXPECT_NEAR(coarse.cloud_fraction[px], fraction, 1e-6) << px;  // float of a ninth
+      EXPECT_NEAR(coarse.cloud_optical_depth[px], tau, 1e-5 * tau + 1e-9) << px;
+      EXPECT_EQ(coarse.cloud_type[px] >= 0, fraction > 0) << px;
+      partly_cloudy += fraction > 0 && fraction < 1;
+      // The centre sub-pixel (odd k) is the point sample: its latitude is the point image's.
+      if (!std::isnan(point.latitude_deg[px])) EXPECT_EQ(coarse.latitude_deg[px], point.latitude_deg[px]) << px;
+    }
+  EXPECT_GT(partly_cloudy, 20u) << "pixels with sub-pixel cloud edges in this view";
+  EXPECT_GT(differs_from_point, 20u);
+  // Brightness temperature: that of the mean radiance (the band's inverse Planck), so warmer
+  // clear sub-pixels and colder cloudy ones give a value in between.
+  const std::size_t lwir = 2;
+  ASSERT_EQ(coarse.bands[lwir], "lwir");
+  for (std::size_t px = 0; px < coarse.cloud_fraction.size(); ++px) {
+    if (std::isnan(point.latitude_deg[px])) continue;
+    const double back = optics::band_planck(optics::band("lwir"), coarse.brightness_temperature[lwir][px]);
+    EXPECT_NEAR(back / coarse.radiance[lwir][px], 1.0, 1e-4) << px;  // the 0.01 K table's inversion
+  }
+  RenderParams bad;
+  bad.samples_per_axis = 0;
+  EXPECT_THROW(render(r.scene, Sensor::geostationary(-75.2, 4, 4), sun, bad, &r.w), nephos::ValueError);
 }
 
 }  // namespace nephos::render

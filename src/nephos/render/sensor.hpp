@@ -20,11 +20,12 @@ struct Sensor {
 
   /// Unit direction of the ray through image point (x, y) in pixels (0,0 = top-left corner).
   earth::Vec3 ray(double x, double y) const { return ray(x, y, std::tan(0.5 * fov_deg * earth::deg)); }
-  /// The rays through the centres of the pixels of image row `row`, out[0 .. width - 1]
-  /// (ray(x + 0.5, row + 0.5), with the field of view's tangent computed once).
-  void row_rays(int row, earth::Vec3* out) const {
+  /// The rays through the points (x + dx, row + dy) of the pixels of image row `row`, out[0 ..
+  /// width - 1]: by default their centres (ray(x + 0.5, row + 0.5), with the field of view's
+  /// tangent computed once).
+  void row_rays(int row, earth::Vec3* out, double dx = 0.5, double dy = 0.5) const {
     const double t = std::tan(0.5 * fov_deg * earth::deg);
-    for (int x = 0; x < width; ++x) out[x] = ray(x + 0.5, row + 0.5, t);
+    for (int x = 0; x < width; ++x) out[x] = ray(x + dx, row + dy, t);
   }
 
   /// Full disc from geostationary orbit over longitude `lon_deg`, north up; the field of view
