@@ -154,6 +154,18 @@ TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
       std::count(a.cloud_type.begin(), a.cloud_type.end(), 1) + std::count(a.cloud_type.begin(), a.cloud_type.end(), 3),
       100);
   EXPECT_EQ(a.cloud_type[0], -1);
+  // Several rays per pixel: summed per pixel in a fixed order, so identical too.
+  RenderParams rp;
+  rp.samples_per_axis = 2;
+  const Sensor small = Sensor::geostationary(-75.2, 48, 48);
+  set_threads(1);
+  const RenderImage c = render(r.scene, small, sun, rp, &r.w);
+  set_threads(2);
+  const RenderImage d = render(r.scene, small, sun, rp, &r.w);
+  set_threads(0);
+  for (std::size_t k = 0; k < c.radiance.size(); ++k)
+    EXPECT_EQ(std::memcmp(c.radiance[k].data(), d.radiance[k].data(), c.radiance[k].size() * sizeof(float)), 0);
+  EXPECT_EQ(std::memcmp(c.cloud_fraction.data(), d.cloud_fraction.data(), c.cloud_fraction.size() * sizeof(float)), 0);
 }
 
 TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
