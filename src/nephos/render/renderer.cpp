@@ -294,20 +294,30 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
 
 namespace {
 
-// One ray per pixel, through the point (x + dx, y + dy) of pixel (x, y).
+// The bands of a render and their Planck tables, built once per render (each table holds
+// 30 000 band integrals).
+struct BandTables {
+  std::vector<const optics::Band*> bands;
+  std::vector<PlanckTable> planck;
+  explicit BandTables(const std::vector<std::string>& names) {
+    if (names.size() > 3) throw ValueError("at most 3 bands per render", {.key = "--bands"});
+    for (const auto& name : names) {
+      bands.push_back(&optics::band(name));
+      planck.emplace_back(*bands.back());
+    }
+  }
+};
+
+// One ray per pixel, through the point (x + dx, y + dy) of pixel (x, y); radiances, no
+// brightness temperatures (render() converts the final radiances).
 RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
-                      const RenderParams& params, const weather::WeatherGrid* weather, double dx, double dy,
-                      Progress& progress) {
+                      const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
+                      double dx, double dy, Progress& progress) {
   const int w = sensor.width, h = sensor.height;
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   const std::size_t nb = params.bands.size();
-  if (nb > 3) throw ValueError("at most 3 bands per render", {.key = "--bands"});
-  std::vector<const optics::Band*> bands;
-  std::vector<PlanckTable> planck;
-  for (const auto& name : params.bands) {
-    bands.push_back(&optics::band(name));
-    planck.emplace_back(*bands.back());
-  }
+  const std::vector<const optics::Band*>& bands = tables.bands;
+  const std::vector<PlanckTable>& planck = tables.planck;
   const earth::Vec3 sun_dir = sun.direction_ecef;
   const double sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
   const double f_ind = params.indirect_fraction;
@@ -450,14 +460,20 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
       for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
     }
   }
-  for (std::size_t b = 0; b < nb; ++b) {
-    if (!bands[b]->thermal) continue;
-    img.brightness_temperature[b].resize(npx);
-#pragma omp parallel for schedule(static)
-    for (std::size_t px = 0; px < npx; ++px)
-      img.brightness_temperature[b][px] = static_cast<float>(planck[b].inverse(img.radiance[b][px]));
-  }
   return img;
+}
+
+// The brightness temperature of each thermal band's radiance (the inverse band-mean Planck).
+void add_brightness_temperatures(RenderImage& img, const BandTables& tables) {
+  for (std::size_t b = 0; b < tables.bands.size(); ++b) {
+    if (!tables.bands[b]->thermal) continue;
+    const std::vector<float>& radiance = img.radiance[b];
+    std::vector<float>& bt = img.brightness_temperature[b];
+    bt.resize(radiance.size());
+#pragma omp parallel for schedule(static)
+    for (std::size_t px = 0; px < radiance.size(); ++px)
+      bt[px] = static_cast<float>(tables.planck[b].inverse(radiance[px]));
+  }
 }
 
 }  // namespace
@@ -469,7 +485,12 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
     throw ValueError(fmt::format("samples per pixel must be k^2 with k = 1..16, got k = {}", k), {.key = "--samples"});
   Progress progress("render", static_cast<std::size_t>(sensor.height) * scene.shells.size() *
                                   static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
-  if (k == 1) return render_at(scene, sensor, sun, params, weather, 0.5, 0.5, progress);
+  const BandTables tables(params.bands);
+  if (k == 1) {
+    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, 0.5, 0.5, progress);
+    add_brightness_temperatures(img, tables);
+    return img;
+  }
   // k x k sub-pixel rays per pixel, one whole image each, summed in a fixed order (the result
   // does not depend on the thread count).
   const std::size_t npx = static_cast<std::size_t>(sensor.width) * static_cast<std::size_t>(sensor.height);
@@ -482,7 +503,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const int centre = k / 2;  // the sub-pixel nearest the centre (the centre for odd k)
   for (int j = 0; j < k; ++j)
     for (int i = 0; i < k; ++i) {
-      RenderImage sub = render_at(scene, sensor, sun, params, weather, (i + 0.5) / k, (j + 0.5) / k, progress);
+      RenderImage sub = render_at(scene, sensor, sun, params, weather, tables, (i + 0.5) / k, (j + 0.5) / k, progress);
 #pragma omp parallel for schedule(static)
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
@@ -515,16 +536,10 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   img.cloud_optical_depth.resize(npx);
   img.cloud_type.assign(npx, -1);
   img.cloud_fraction.resize(npx);
-  for (std::size_t b = 0; b < nb; ++b) {
-    const optics::Band& band = optics::band(params.bands[b]);
-    const PlanckTable planck(band);
-    if (band.thermal) img.brightness_temperature[b].resize(npx);
+  for (std::size_t b = 0; b < nb; ++b)
 #pragma omp parallel for schedule(static)
-    for (std::size_t px = 0; px < npx; ++px) {
-      img.radiance[b][px] = static_cast<float>(radiance[b][px] * inv_n);
-      if (band.thermal) img.brightness_temperature[b][px] = static_cast<float>(planck.inverse(img.radiance[b][px]));
-    }
-  }
+    for (std::size_t px = 0; px < npx; ++px) img.radiance[b][px] = static_cast<float>(radiance[b][px] * inv_n);
+  add_brightness_temperatures(img, tables);
 #pragma omp parallel for schedule(static)
   for (std::size_t px = 0; px < npx; ++px) {
     img.cloud_optical_depth[px] = static_cast<float>(tau[px] * inv_n);
