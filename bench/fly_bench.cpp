@@ -32,6 +32,34 @@ double percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
 }
+double mean(const std::vector<double>& v) {
+  double sum = 0;
+  for (double x : v) sum += x;
+  return sum / static_cast<double>(v.size());
+}
+
+// The thesis's flight: straight and level at 8000 ft, 250 kt, 30 frames per second of flight,
+// through the clouds of weather code `code`.
+struct Flight {
+  realtime::Camera cam{{0, 0, 8000 * 0.3048}, {1, 0, -0.05}, {0, 0, 1}, 60};
+  realtime::CloudField field;
+  realtime::ResortPolicy policy;
+  Flight(const char* code, bool clustered, std::uint64_t seed) : field(recipe(code, clustered), seed, cam.position) {}
+  static realtime::CloudRecipe recipe(const char* code, bool clustered) {
+    realtime::CloudRecipe r = realtime::recipe_from_code(realtime::parse_weather_code(code));
+    r.clustered = clustered;
+    return r;
+  }
+  /// Flies to frame `frame` and draws it; the frame time [ms].
+  double frame(int frame, realtime::SpriteRenderer& renderer, const realtime::SunLight& sun, bool sort_opt,
+               bool impostors) {
+    cam.position.x += 250 * 0.514444 / 30.0;
+    field.advance_time(frame / 30.0);
+    field.follow_camera(cam.position, cam.forward);
+    const bool sort = !sort_opt || policy.due(cam.position, cam.forward);
+    return renderer.draw(field, cam, sun, sort, impostors).milliseconds;
+  }
+};
 
 // Test E (200 clouds, sort-optimised) with frames alternating between two renderers, one with
 // the impostor ring and one drawing every sprite, each flying its own copy of the same flight:
@@ -40,32 +68,18 @@ double percentile(std::vector<double> v, double p) {
 // too. Returns {impostors, every sprite} frame times [ms].
 std::array<std::vector<double>, 2> paired_test_e(const FlyBenchOptions& o, std::uint64_t seed, bool clustered,
                                                  const realtime::SunLight& sun) {
-  struct Flight {
-    Flight(const FlyBenchOptions& o, std::uint64_t seed, const realtime::CloudRecipe& recipe,
-           const realtime::Camera& start)
-        : renderer(o.width, o.height, seed), cam(start), field(recipe, seed, start.position) {}
-    realtime::SpriteRenderer renderer;
-    realtime::Camera cam;
-    realtime::CloudField field;
-    realtime::ResortPolicy policy;
-  };
-  realtime::CloudRecipe recipe = realtime::recipe_from_code(realtime::parse_weather_code("d400"));
-  recipe.clustered = clustered;
-  const realtime::Camera start{{0, 0, 8000 * 0.3048}, {1, 0, -0.05}, {0, 0, 1}, 60};
+  std::array<std::unique_ptr<realtime::SpriteRenderer>, 2> renderers;
   std::array<std::unique_ptr<Flight>, 2> flights;
-  for (auto& f : flights) f = std::make_unique<Flight>(o, seed, recipe, start);
+  for (std::size_t w = 0; w < 2; ++w) {
+    renderers[w] = std::make_unique<realtime::SpriteRenderer>(o.width, o.height, seed);
+    flights[w] = std::make_unique<Flight>("d400", clustered, seed);
+  }
   std::array<std::vector<double>, 2> ms;
   for (int frame = 0; frame < o.frames; ++frame)
     for (int k = 0; k < 2; ++k) {
-      const int which = (frame + k) % 2;  // 0: impostors
-      Flight& f = *flights[static_cast<std::size_t>(which)];
-      f.renderer.make_current();
-      f.cam.position.x += 250 * 0.514444 / 30.0;
-      f.field.advance_time(frame / 30.0);
-      f.field.follow_camera(f.cam.position, f.cam.forward);
-      const bool sort = f.policy.due(f.cam.position, f.cam.forward);
-      ms[static_cast<std::size_t>(which)].push_back(
-          f.renderer.draw(f.field, f.cam, sun, sort, which == 0).milliseconds);
+      const auto which = static_cast<std::size_t>((frame + k) % 2);  // 0: impostors
+      renderers[which]->make_current();
+      ms[which].push_back(flights[which]->frame(frame, *renderers[which], sun, true, which == 0));
     }
   return ms;
 }
@@ -91,33 +105,21 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
         for (bool impostors : {true, false}) {
           if (o.tests.find(static_cast<char>('A' + t)) == std::string::npos) continue;
           renderer.set_impostor_radius(8000);  // a fresh ring for every case
-          realtime::CloudRecipe recipe = realtime::recipe_from_code(realtime::parse_weather_code(codes[t]));
-          recipe.clustered = clustered;
-          realtime::Camera cam{{0, 0, 8000 * 0.3048}, {1, 0, -0.05}, {0, 0, 1}, 60};
-          realtime::CloudField field(recipe, seed, cam.position);
-          realtime::ResortPolicy policy;
+          Flight flight(codes[t], clustered, seed);
           std::vector<double> ms;
           const double c0 = cpu_seconds();
           const auto w0 = std::chrono::steady_clock::now();
-          for (int f = 0; f < o.frames; ++f) {
-            cam.position.x += 250 * 0.514444 / 30.0;
-            field.advance_time(f / 30.0);
-            field.follow_camera(cam.position, cam.forward);
-            const bool sort = !sort_opt || policy.due(cam.position, cam.forward);
-            ms.push_back(renderer.draw(field, cam, sun, sort, impostors).milliseconds);
-          }
+          for (int f = 0; f < o.frames; ++f) ms.push_back(flight.frame(f, renderer, sun, sort_opt, impostors));
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
           const double load = (cpu_seconds() - c0) / wall;  // cores busy on average (2 = both)
-          double mean = 0;
-          for (double v : ms) mean += v;
-          mean /= static_cast<double>(ms.size());
           p95s.push_back(percentile(ms, 0.95));
           if (t == 4 && sort_opt)
-            e_mean[clustered][impostors] = mean, e_p95[clustered][impostors] = percentile(ms, 0.95);
+            e_mean[clustered][impostors] = mean(ms), e_p95[clustered][impostors] = percentile(ms, 0.95);
           std::cout << fmt::format("{:<5} {:>6} {:>10} {:>9} {:>10} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.0f}%\n",
-                                   std::string(1, static_cast<char>('A' + t)), field.clouds().size(),
-                                   clustered ? "yes" : "no", sort_opt ? "yes" : "no", impostors ? "yes" : "no", mean,
-                                   percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 0.99), 100 * load);
+                                   std::string(1, static_cast<char>('A' + t)), flight.field.clouds().size(),
+                                   clustered ? "yes" : "no", sort_opt ? "yes" : "no", impostors ? "yes" : "no",
+                                   mean(ms), percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 0.99),
+                                   100 * load);
         }
   for (int c = 0; c < 2 && o.tests.find('E') != std::string::npos; ++c)
     std::cout << fmt::format(
@@ -126,11 +128,6 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
         c ? "clustered" : "spread", e_mean[c][1], e_p95[c][1], e_mean[c][0], e_p95[c][0], e_mean[c][0] / e_mean[c][1]);
   for (int c = 0; c < 2 && o.tests.find('E') != std::string::npos; ++c) {
     const auto ms = paired_test_e(o, seed, c == 1, sun);
-    auto mean = [](const std::vector<double>& v) {
-      double sum = 0;
-      for (double x : v) sum += x;
-      return sum / static_cast<double>(v.size());
-    };
     std::cout << fmt::format(
         "test E (200 clouds, {}, sort-optimised), frames alternating between the two: impostors {:.1f} ms mean / "
         "{:.1f} ms p95, every sprite {:.1f} / {:.1f} ms: impostors {:.2f}x faster (goal 3x)\n",
