@@ -204,7 +204,15 @@ class Render(unittest.TestCase):
             out = Path(d) / "out"
             for args, needle in ((["--sensor", "geo:east"], "--sensor"), (["--size", "12by4"], "--size"),
                                  (["--types", "nimbus"], "nimbus"), (["--bands", "uv"], "uv"),
-                                 (["--time", "tomorrow"], "tomorrow"), (["--samples", "5"], "--samples")):
+                                 (["--time", "tomorrow"], "tomorrow"), (["--samples", "5"], "--samples"),
+                                 # nothing hangs, overflows or allocates what the machine does not have
+                                 (["--displace-hours", "1e9"], "--displace-hours"),
+                                 (["--advance-hours", "-1e9"], "--advance-hours"),
+                                 (["--texture", "4096"], "--texture"),
+                                 (["--sensor", "leo:91,0,700,10"], "latitude"),
+                                 (["--sensor", "leo:0,nan,700,10"], "finite"),
+                                 (["--bands", "vis,vis"], "listed twice"),
+                                 (["--time", "2023-02-29T12:00:00Z"], "invalid calendar date")):
                 r = run("render", *args, "--out", out)
                 self.assertEqual(r.returncode, 2, args)
                 self.assertIn(needle, r.stderr)
@@ -253,6 +261,11 @@ class Lbm(unittest.TestCase):
             r = run("lbm", "--resume", Path(d) / "any.bin", "--storage", "fp16", "--out", out)
             self.assertEqual(r.returncode, 2)
             self.assertIn("keeps the storage of its checkpoint", r.stderr)
+            for args, needle in ((["--silos", "-2"], "--silos"), (["--sun", "135,-5"], "elevation"),
+                                 (["--sun", "nan,45"], "finite"), (["--checkpoint-every", "-1"], "--checkpoint-every")):
+                Info.assert_input_error(self, run("lbm", "--grid", "16x16x16", *args, "--out", out), needle)
+            Info.assert_input_error(self, run("lbm", "--grid", "4096x4096x4096", "--out", out),
+                                    "more than this machine's")
             self.assertFalse(out.exists())
 
     def test_fp16_storage_runs_and_resumes(self):
@@ -356,6 +369,15 @@ class Fly(unittest.TestCase):
             self.frames(d, "--code", "d400")
             self.assertGreater(darkness(Path(d) / "frame_0001.png"), 10.0)
             Info.assert_input_error(self, run("fly", "--change", "d400", "--out", d), "--change")
+
+    def test_bad_numbers_write_nothing(self):
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "out"
+            for args, needle in ((["--change", "d400@-1"], "--change"), (["--speed", "-5"], "--speed"),
+                                 (["--altitude", "1e9"], "--altitude"), (["--position", "95,0"], "--position"),
+                                 (["--lod-km", "-1"], "--lod-km"), (["--time", "2024-06-31T10:00:00Z"], "calendar")):
+                Info.assert_input_error(self, run("fly", "--frames", "1", *args, "--out", out), needle)
+            self.assertFalse(out.exists())
 
     def test_clear_sky_has_no_cloud_and_overcast_has_many(self):
         with tempfile.TemporaryDirectory() as d:
@@ -572,6 +594,11 @@ class Particles(unittest.TestCase):
             Info.assert_input_error(self, run("particles", "--wrf", Path(d) / "none.nc", "--out", out), "none.nc")
             Info.assert_input_error(self, run("particles", "--region", "10,10,11,11", "--out", out), "--region")
             Info.assert_input_error(self, run("particles", "--transmission", "fog", "--out", out), "--transmission")
+            for args, needle in ((["--count", "100000000000"], "more than this machine's"),
+                                 (["--refine", "100000"], "more than this machine's"),
+                                 (["--frame-minutes", "-5"], "--frame-minutes"), (["--lod-l0-km", "-1"], "--lod-l0-km"),
+                                 (["--camera", "0,0,5,0,nan"], "finite"), (["--camera", "0,0,5,0,120"], "pitch")):
+                Info.assert_input_error(self, run("particles", *args, "--out", out), needle)
             self.assertFalse(out.exists())
 
 class Bench(unittest.TestCase):

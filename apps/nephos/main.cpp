@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
+#include <new>
 #include <optional>
 #include <sstream>
 
@@ -93,9 +95,9 @@ struct RenderOptions {
   std::string types = "low_stratus,low_cumulus,altostratus,cirrus";
   std::string bands = "vis,nir,lwir";
   int steps = 25;
-  int samples = 1;  // rays per pixel, k^2
-  int texture = 256;
-  double displace_hours = -1;  // < 0: per-type defaults
+  int samples = 1;             // rays per pixel, k^2
+  int texture = 0;             // 0: the config's [textures] size (default 256)
+  std::string displace_hours;  // empty: per-type defaults
   double advance_hours = 0;
   int frames = 1;
   std::string time;
@@ -112,6 +114,19 @@ std::vector<std::string> split(const std::string& list, const std::string& key) 
   if (out.empty()) throw ValueError("empty list", {.key = key});
   return out;
 }
+
+/// split() of a list whose items must be distinct (bands, cloud types).
+std::vector<std::string> split_distinct(const std::string& list, const std::string& key) {
+  std::vector<std::string> items = split(list, key);
+  for (std::size_t i = 0; i < items.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (items[i] == items[j]) throw ValueError("'" + items[i] + "' is listed twice", {.key = key});
+  return items;
+}
+
+/// The longest wind displacement or animation advance [h]: ten days, the length of a GFS
+/// forecast (the integration runs one step per displacement step, 30 min by default).
+constexpr double max_displacement_hours = 240;
 
 std::pair<int, int> parse_size(const std::string& s) {
   int w = 0, h = 0;
@@ -179,10 +194,10 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   // Parse everything before any work, so that bad input fails fast and writes nothing.
   const auto [width, height] = parse_size(o.size);
   std::vector<weather::CloudType> types;
-  for (const auto& t : split(o.types, "--types")) types.push_back(weather::cloud_type_from_name(t));
+  for (const auto& t : split_distinct(o.types, "--types")) types.push_back(weather::cloud_type_from_name(t));
   render::RenderParams rp;
   rp.steps = o.steps;
-  rp.bands = split(o.bands, "--bands");
+  rp.bands = split_distinct(o.bands, "--bands");
   for (const auto& b : rp.bands) optics::band(b);
   if (o.steps < 1 || o.steps > 10000) throw ValueError("must be 1..10000", {.key = "--steps"});
   rp.samples_per_axis = static_cast<int>(std::lround(std::sqrt(std::max(o.samples, 0))));
@@ -190,6 +205,13 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", o.samples),
                      {.key = "--samples"});
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
+  require_range(o.advance_hours, -max_displacement_hours, max_displacement_hours, "--advance-hours",
+                "the advance per frame [h]");
+  std::optional<double> displace_hours;
+  if (!o.displace_hours.empty()) {
+    displace_hours = parse_numbers(o.displace_hours, 1, "--displace-hours", "hours")[0];
+    require_range(*displace_hours, 0, max_displacement_hours, "--displace-hours", "the wind displacement [h]");
+  }
   clouds::CloudModelParams cp;
   weather::MaskParams mp;
   if (!o.config.empty()) {
@@ -198,10 +220,16 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     mp = weather::MaskParams::from(dict);
     dict.check_unused();
   }
-  cp.texture_size = o.texture;
-  if (o.displace_hours >= 0)
+  if (o.texture != 0) cp.texture_size = o.texture;
+  // The textures: three N^3 voxel grids of one byte each.
+  const int tex = cp.texture_size;
+  if (tex < 8 || tex > 1024 || (tex & (tex - 1)) != 0)
+    throw ValueError(fmt::format("texture size must be a power of two from 8 to 1024, got {}", tex),
+                     {.key = "--texture"});
+  require_memory(3.0 * std::pow(tex, 3), "--texture", fmt::format("three {}^3 fractal textures", tex));
+  if (displace_hours)
     for (auto& t : cp.types)
-      for (auto& f : t.fractals) f.displace_hours = o.displace_hours;
+      for (auto& f : t.fractals) f.displace_hours = *displace_hours;
   const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
 
   const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed);
@@ -227,7 +255,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
                                sun.subsolar_lon_deg,
                                g.seed,
                                o.steps,
-                               o.texture,
+                               tex,
                                o.samples,
                                {}};
     for (auto t : types) meta.types.emplace_back(weather::name(t));
@@ -238,7 +266,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     for (const auto& [name, secs] : img.seconds_per_type) summary += fmt::format(" {} {:.0f} ms,", name, secs * 1e3);
     if (!summary.empty()) summary.pop_back();
     std::cout << fmt::format("frame {}: {}x{} px, {} ray{} per pixel, {} steps, texture {}^3:{} ({})\n", frame, width,
-                             height, o.samples, o.samples == 1 ? "" : "s", o.steps, o.texture, summary, threads_text());
+                             height, o.samples, o.samples == 1 ? "" : "s", o.steps, tex, summary, threads_text());
   }
   spdlog::info("wrote {} in {:.1f} s", out.string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
@@ -247,7 +275,8 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
 
 struct LbmOptions {
   std::string grid = "128x128x128";
-  int silos = -1;  // < 0: the parameter file's (default 4)
+  static constexpr int silos_unset = std::numeric_limits<int>::min();
+  int silos = silos_unset;  // unset: the parameter file's (default 4)
   long iterations = 20;
   long checkpoint_every = 0;
   int percolation = 5;         // K; 0: skip the stage
@@ -264,6 +293,11 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   if (o.iterations < 0) throw ValueError("must be >= 0", {.key = "--iterations"});
   const auto image_size = parse_size(o.size);
   const auto sun = parse_numbers(o.sun, 2, "--sun", "AZIMUTH,ELEVATION in degrees");
+  // The sunlight enters through the faces it illuminates from above: a sun on or below the
+  // horizon lights nothing.
+  if (!(sun[1] > 0 && sun[1] <= 90))
+    throw ValueError(fmt::format("the sun's elevation must be in (0, 90] deg, got {:g}", sun[1]), {.key = "--sun"});
+  if (o.checkpoint_every < 0) throw ValueError("must be >= 0 (0: never)", {.key = "--checkpoint-every"});
   lbm::LightingParams lp;
   lp.sun_azimuth_deg = sun[0];
   lp.sun_elevation_deg = sun[1];
@@ -274,10 +308,25 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     params = lbm::WaterModelParams::from(dict);
     dict.check_unused();
   }
-  if (o.silos >= 0) params.silos = o.silos;
+  if (o.silos != LbmOptions::silos_unset) {
+    if (o.silos < 0 || o.silos > lbm::max_silos)
+      throw ValueError(fmt::format("must be 0..{}, got {}", lbm::max_silos, o.silos), {.key = "--silos"});
+    params.silos = o.silos;
+  }
   if (!o.storage.empty()) params.storage = lbm::parse_storage(o.storage);
   if (!o.resume.empty() && !o.storage.empty())
     throw ValueError("a resumed run keeps the storage of its checkpoint", {.key = "--storage"});
+  {
+    // What the stages hold at once, per cell [B] (docs/lbm.md): the water model's populations
+    // and fields (one process), the percolation's five bits per refined site, the lighting's
+    // two copies of 19 directions plus coefficients, and the output fields.
+    const lbm::Grid3 lattice =
+        o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
+    const double water = app::mpi_launched() ? 0.0 : params.storage == lbm::Storage::fp16 ? 164 : 316;
+    const double percolation = 5.0 * std::pow(o.percolation, 3) / 8 + 8, lighting = 2 * 19 * 4 + 8, fields = 5 * 4;
+    require_memory(static_cast<double>(lattice.cells()) * (std::max({water, percolation, lighting}) + fields), "--grid",
+                   fmt::format("the {} lattice with percolation K = {}", lattice.describe(), o.percolation));
+  }
   const fs::path out(o.out);
   std::vector<float> vapour, temperature;
   lbm::Grid3 grid;
@@ -439,9 +488,19 @@ void add_flight_options(CLI::App* c, FlyOptions& o) {
   c->add_option("--lod-km", o.lod_km,
                 "Clouds drawn as sprites farther than this are drawn as one sprite (level of detail) [km]; 0: "
                 "every sprite")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->capture_default_str();
   c->add_option("--gl", o.gl, "OpenGL API: gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core)")->capture_default_str();
+}
+
+// The aircraft's place, checked with the other numbers nephos fly and nephos view share.
+std::pair<double, double> checked_flight(const FlyOptions& o) {
+  const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
+  require_range(pos[0], -90, 90, "--position", "the latitude [deg]");
+  // From the Dead Sea shore to beyond any aircraft's ceiling.
+  require_range(o.altitude_ft, -1500, 100000, "--altitude", "the altitude [ft]");
+  require_range(o.speed_kt, 0, 5000, "--speed", "the ground speed [kt]");
+  require_range(o.lod_km, 0, 1e4, "--lod-km", "the level-of-detail distance [km] (0: off)");
+  return {pos[0], pos[1]};
 }
 
 // The clouds around the aircraft from whichever weather source the options name.
@@ -460,8 +519,7 @@ realtime::CloudRecipe flight_recipe(const FlyOptions& o, const UtcTime& time, do
 int run_view_command(const FlyOptions& o, const std::string& screenshot, const GlobalOptions& g) {
   app::ViewOptions v;
   std::tie(v.width, v.height) = parse_size(o.size);
-  const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
-  v.lat_deg = pos[0], v.lon_deg = pos[1];
+  std::tie(v.lat_deg, v.lon_deg) = checked_flight(o);
   const UtcTime time = UtcTime::parse(o.time);
   if (o.frames < 0) throw ValueError("must be >= 0 (0: until the window is closed)", {.key = "--frames"});
   v.time = time;
@@ -480,8 +538,7 @@ int run_view_command(const FlyOptions& o, const std::string& screenshot, const G
 
 int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
-  const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
-  const double lat = pos[0], lon = pos[1];
+  const auto [lat, lon] = checked_flight(o);
   const UtcTime time = UtcTime::parse(o.time);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   std::optional<std::pair<realtime::CloudRecipe, double>> change;
@@ -491,6 +548,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     if (at == std::string::npos)
       throw ValueError("expected CODE@SECONDS, e.g. d400@1.5, got '" + o.change + "'", {.key = "--change"});
     const auto secs = parse_numbers(o.change.substr(at + 1), 1, "--change", "CODE@SECONDS");
+    require_range(secs[0], 0, 1e7, "--change", "the time of the change [s of flight]");
     change.emplace(realtime::recipe_from_code(realtime::parse_weather_code(o.change.substr(0, at))), secs[0]);
   }
   const realtime::CloudRecipe recipe = flight_recipe(o, time, lat, lon);
@@ -557,6 +615,16 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   if (o.count < 1) throw ValueError("must be >= 1", {.key = "--count"});
+  // Per particle: its state, motion, shading, sort keys and instance data, about 256 B.
+  require_memory(256.0 * static_cast<double>(o.count), "--count", fmt::format("{} particles", o.count));
+  require_range(o.frame_minutes, 1e-3, 1e6, "--frame-minutes", "the time between frames [min]");
+  require_range(o.lod_l0_km, 0, 1e5, "--lod-l0-km", "eq. 13's L0 [km] (0: a quarter of the region)");
+  std::vector<double> camera;  // X_KM, Y_KM, ALT_KM, HEADING_DEG, PITCH_DEG; empty: the scene's default
+  if (!o.camera.empty()) {
+    camera = parse_numbers(o.camera, 5, "--camera", "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG");
+    require_range(camera[2], 0, 1e5, "--camera", "the camera's altitude [km]");
+    require_range(camera[4], -90, 90, "--camera", "the camera's pitch [deg]");
+  }
   if (!o.wrf.empty() && !o.weather.empty()) throw ValueError("give --weather or --wrf, not both", {.key = "--wrf"});
   particles::ParticleWeather pw;
   if (!o.wrf.empty()) {
@@ -574,7 +642,13 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
                      : o.wrf.empty() ? particles::refine_factor_for(pw.grid, particles::default_refined_cell_m)
                                      : 1;
   if (o.refine < 0) throw ValueError("must be >= 0", {.key = "--refine"});
-  if (factor > 1) pw = particles::refine(pw, factor);
+  if (factor > 1) {
+    // The refined frames: three column fields and four per wind level, 4 B each.
+    const double columns = static_cast<double>(pw.grid.cols) * pw.grid.rows * factor * factor;
+    require_memory(columns * static_cast<double>(pw.frames.size()) * (3 + 4 * pw.frames.front().wind.levels) * 4.0,
+                   "--refine", fmt::format("the weather refined {} x {}", factor, factor));
+    pw = particles::refine(pw, factor);
+  }
   particles::SceneParams sp;
   sp.generation.count = o.count;
   sp.generation.k = o.k;
@@ -594,8 +668,8 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   const auto& w = scene.weather();
 
   realtime::Camera cam = scene.default_camera();
-  if (!o.camera.empty()) {
-    const auto c = parse_numbers(o.camera, 5, "--camera", "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG");
+  if (!camera.empty()) {
+    const auto& c = camera;
     const double h = c[3] * earth::deg, p = c[4] * earth::deg;
     cam.position = {c[0] * 1000, c[1] * 1000, c[2] * 1000};
     cam.forward = {std::sin(h) * std::cos(p), std::cos(h) * std::cos(p), std::sin(p)};
@@ -687,7 +761,9 @@ int main(int argc, char** argv) {
   rend->add_option("--samples", ro.samples,
                    "Rays per pixel, a square k^2 (1, 4, 9, ... 256): the mean of a k x k sub-pixel grid")
       ->capture_default_str();
-  rend->add_option("--texture", ro.texture, "Fractal texture size N (N^3 voxels, power of two)")->capture_default_str();
+  rend->add_option("--texture", ro.texture,
+                   "Fractal texture size N (N^3 voxels, power of two 8..1024; default 256 or the config's [textures] "
+                   "size)");
   rend->add_option("--displace-hours", ro.displace_hours, "Wind displacement of all fractals [h] (default: per type)");
   rend->add_option("--advance-hours", ro.advance_hours, "Propagate the displacement maps by H hours (per frame)");
   rend->add_option("--frames", ro.frames, "Number of frames (each advanced by --advance-hours)")->capture_default_str();
@@ -808,6 +884,12 @@ int main(int argc, char** argv) {
   } catch (const Error& e) {
     std::cerr << "nephos: error: " << e.what() << "\n";
     return exit_input_error;
+  } catch (const std::bad_alloc&) {
+    // The commands check their big allocations against the machine's memory first; this is
+    // what is left when the memory other programs hold makes the difference.
+    std::cerr << "nephos: error: out of memory (other programs may hold what this run needs; try a smaller "
+                 "--size, --grid, --texture or --count)\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "nephos: internal error: " << e.what() << "\n";
     return 1;

@@ -53,44 +53,42 @@ CloudModelParams::CloudModelParams() {
 }
 
 CloudModelParams CloudModelParams::from(const ParamDict& dict) {
+  // Ranges: what the model can use, not what is typical (docs/render.md). Shells and winds
+  // within 100 km of the surface; displacements up to ten days, the length of a GFS forecast.
+  constexpr double max_altitude_m = 100e3, max_displace_hours = 240;
   CloudModelParams p;
   const ParamDict t = dict.table("textures");
-  p.texture_size = t.get("size", p.texture_size);
+  p.texture_size = t.get_in("size", p.texture_size, 8, 1024);
   const ParamDict d = dict.table("displacement");
-  p.displacement_cube_size = d.get("cube_size", p.displacement_cube_size);
-  p.displacement_step_s = d.get("step_s", p.displacement_step_s);
-  p.mask_cube_size = dict.table("masks_cube").get("size", p.mask_cube_size);
+  p.displacement_cube_size = d.get_in("cube_size", p.displacement_cube_size, 4, 2048);
+  p.displacement_step_s = d.get_in("step_s", p.displacement_step_s, 1.0, 86400.0);
+  p.mask_cube_size = dict.table("masks_cube").get_in("size", p.mask_cube_size, 4, 4096);
   const ParamDict clouds = dict.table("clouds");
   static const char* fractal_names[] = {"coarse", "fine", "worley"};
   for (int k = 0; k < weather::cloud_type_count; ++k) {
     const ParamDict c = clouds.table(weather::name(static_cast<CloudType>(k)));
     auto& q = p.types[static_cast<std::size_t>(k)];
-    q.shell_bottom_m = c.get("shell_bottom_m", q.shell_bottom_m);
-    q.shell_top_m = c.get("shell_top_m", q.shell_top_m);
-    q.wind_altitude_m = c.get("wind_altitude_m", q.wind_altitude_m);
+    q.shell_bottom_m = c.get_in("shell_bottom_m", q.shell_bottom_m, 0.0, max_altitude_m);
+    q.shell_top_m = c.get_in("shell_top_m", q.shell_top_m, 0.0, max_altitude_m);
+    q.wind_altitude_m = c.get_in("wind_altitude_m", q.wind_altitude_m, 0.0, max_altitude_m);
     for (int i = 0; i < 3; ++i) {
       const ParamDict f = c.table(fractal_names[i]);
       auto& term = q.fractals[static_cast<std::size_t>(i)];
-      term.weight = f.get("weight", term.weight);
-      term.length_scale_m = f.get("length_scale_m", term.length_scale_m);
-      term.displace_hours = f.get("displace_hours", term.displace_hours);
-      if (!(term.length_scale_m > 0))
-        throw ConfigError("must be > 0",
-                          {.file = dict.source(),
-                           .key = fmt::format("clouds.{}.{}.length_scale_m", weather::name(static_cast<CloudType>(k)),
-                                              fractal_names[i])});
+      term.weight = f.get_in("weight", term.weight, -100.0, 100.0);
+      term.length_scale_m = f.get_in("length_scale_m", term.length_scale_m, 1.0, 1e8);
+      term.displace_hours = f.get_in("displace_hours", term.displace_hours, 0.0, max_displace_hours);
     }
     q.calibrate = c.get("calibrate", q.calibrate);
     q.bias = c.get("bias", q.bias);
     q.mask_weight = c.get("mask_weight", q.mask_weight);
-    q.mask_displace_hours = c.get("mask_displace_hours", q.mask_displace_hours);
+    q.mask_displace_hours = c.get_in("mask_displace_hours", q.mask_displace_hours, 0.0, max_displace_hours);
     q.threshold = c.get("threshold", q.threshold);
-    q.altitude_scale = c.get("altitude_scale", q.altitude_scale);
-    q.altitude_length_bottom_m = c.get("altitude_length_bottom_m", q.altitude_length_bottom_m);
-    q.altitude_length_top_m = c.get("altitude_length_top_m", q.altitude_length_top_m);
-    q.min_mask = c.get("min_mask", q.min_mask);
-    q.water_content_g_m3 = c.get("water_content_g_m3", q.water_content_g_m3);
-    q.effective_radius_um = c.get("effective_radius_um", q.effective_radius_um);
+    q.altitude_scale = c.get_in("altitude_scale", q.altitude_scale, 0.0, 1e3);
+    q.altitude_length_bottom_m = c.get_in("altitude_length_bottom_m", q.altitude_length_bottom_m, 1.0, 1e6);
+    q.altitude_length_top_m = c.get_in("altitude_length_top_m", q.altitude_length_top_m, 1.0, 1e6);
+    q.min_mask = c.get_in("min_mask", q.min_mask, 0.0, 1.0);
+    q.water_content_g_m3 = c.get_in("water_content_g_m3", q.water_content_g_m3, 1e-6, 100.0);
+    q.effective_radius_um = c.get_in("effective_radius_um", q.effective_radius_um, 0.1, 1e4);
     const std::string phase = c.get("phase", q.phase == optics::Phase::water ? "water" : "ice");
     if (phase != "water" && phase != "ice")
       throw ConfigError(

@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
 
@@ -111,6 +115,28 @@ TEST(CloudModelParams, TomlOverridesAndRejectsUnknownKeys) {
   EXPECT_EQ(def[CloudType::low_cumulus].shell_top_m, 6000);
   EXPECT_EQ(def[CloudType::altostratus].shell_bottom_m, 6000);
   EXPECT_EQ(def[CloudType::cirrus].shell_bottom_m, 6500);
+}
+
+TEST(CloudModelParams, ValuesOutsideWhatTheModelCanUseAreErrorsNamingTheKey) {
+  // Each would hang (a displacement integrated for 1e9 h), divide by zero, or allocate more
+  // than any machine has; the message names the full key.
+  for (const auto& [toml, key] : std::vector<std::pair<std::string, std::string>>{
+           {"[clouds.cirrus.fine]\ndisplace_hours = 1e9\n", "clouds.cirrus.fine.displace_hours"},
+           {"[clouds.low_cumulus]\nmask_displace_hours = -1\n", "clouds.low_cumulus.mask_displace_hours"},
+           {"[clouds.altostratus]\naltitude_length_top_m = 0\n", "clouds.altostratus.altitude_length_top_m"},
+           {"[clouds.low_stratus.coarse]\nlength_scale_m = 0\n", "clouds.low_stratus.coarse.length_scale_m"},
+           {"[clouds.cirrus]\nmin_mask = 1.5\n", "clouds.cirrus.min_mask"},
+           {"[displacement]\nstep_s = 0\n", "displacement.step_s"},
+           {"[textures]\nsize = 65536\n", "textures.size"},
+           {"[clouds.cirrus]\nthreshold = nan\n", "clouds.cirrus.threshold"}}) {
+    try {
+      CloudModelParams::from(ParamDict::from_string(toml, "c.toml"));
+      ADD_FAILURE() << toml;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.context().key, key);
+      EXPECT_EQ(e.context().file, "c.toml");
+    }
+  }
 }
 
 }  // namespace nephos::clouds

@@ -1,7 +1,11 @@
 #include "nephos/core/config.hpp"
 
+#include <fmt/format.h>
 #include <toml++/toml.h>
+
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "nephos/core/error.hpp"
@@ -59,8 +63,29 @@ bool ParamDict::has(std::string_view key) const { return table_->contains(key); 
 double ParamDict::get(std::string_view key, double fallback) const {
   auto n = static_cast<const toml::node*>(node(key));
   if (!n) return fallback;
-  if (auto v = n->value<double>()) return *v;  // integers convert too
-  type_error(key, "a number");
+  // Integers convert too. TOML's inf may stand for "no bound" (masks.toml); nan never means
+  // anything.
+  if (auto v = n->value<double>(); v && !std::isnan(*v)) return *v;
+  type_error(key, "a number (not nan)");
+}
+
+double ParamDict::get_in(std::string_view key, double fallback, double lo, double hi) const {
+  const double v = get(key, fallback);
+  if (!(v >= lo && v <= hi)) range_error(key, fmt::format("[{:g}, {:g}], got {:g}", lo, hi, v));
+  return v;
+}
+
+int ParamDict::get_in(std::string_view key, int fallback, int lo, int hi) const {
+  const std::int64_t v = get(key, static_cast<std::int64_t>(fallback));
+  if (v < lo || v > hi) range_error(key, fmt::format("[{}, {}], got {}", lo, hi, v));
+  return static_cast<int>(v);
+}
+
+void ParamDict::range_error(std::string_view key, const std::string& range) const {
+  const toml::node* n = table_->get(key);
+  throw ConfigError("must be in " + range, {.file = shared_->source,
+                                            .key = prefix_ + std::string(key),
+                                            .line = n ? static_cast<int>(n->source().begin.line) : 0});
 }
 
 std::int64_t ParamDict::get(std::string_view key, std::int64_t fallback) const {
@@ -71,7 +96,10 @@ std::int64_t ParamDict::get(std::string_view key, std::int64_t fallback) const {
 }
 
 int ParamDict::get(std::string_view key, int fallback) const {
-  return static_cast<int>(get(key, static_cast<std::int64_t>(fallback)));
+  const std::int64_t v = get(key, static_cast<std::int64_t>(fallback));
+  if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
+    range_error(key, fmt::format("the range of a 32-bit integer, got {}", v));
+  return static_cast<int>(v);
 }
 
 bool ParamDict::get(std::string_view key, bool fallback) const {
@@ -96,7 +124,7 @@ std::vector<double> ParamDict::get(std::string_view key, const std::vector<doubl
   std::vector<double> out;
   for (const auto& e : *a) {
     auto v = e.value<double>();
-    if (!v) type_error(key, "an array of numbers");
+    if (!v || std::isnan(*v)) type_error(key, "an array of numbers (not nan)");
     out.push_back(*v);
   }
   return out;

@@ -35,6 +35,11 @@ class ParamDict {
   bool get(std::string_view key, bool fallback) const;
   std::string get(std::string_view key, const std::string& fallback) const;
   std::string get(std::string_view key, const char* fallback) const { return get(key, std::string(fallback)); }
+  /// get() of a number that must lie in [lo, hi]; ConfigError naming the key and its line
+  /// otherwise. (No number may be nan, a type error; inf passes get() where it means "no
+  /// bound", and fails get_in() with finite bounds.)
+  double get_in(std::string_view key, double fallback, double lo, double hi) const;
+  int get_in(std::string_view key, int fallback, int lo, int hi) const;
   /// An array of numbers; `fallback` when absent.
   std::vector<double> get(std::string_view key, const std::vector<double>& fallback) const;
 
@@ -51,6 +56,7 @@ class ParamDict {
   ParamDict(std::shared_ptr<Shared> shared, const toml::table* table, std::string prefix);
   const void* node(std::string_view key) const;
   [[noreturn]] void type_error(std::string_view key, const char* expected) const;
+  [[noreturn]] void range_error(std::string_view key, const std::string& range) const;
 
   std::shared_ptr<Shared> shared_;
   const toml::table* table_ = nullptr;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "nephos/core/error.hpp"
 
 namespace nephos {
@@ -48,6 +50,33 @@ TEST(ParamDict, WrongTypeNamesKeyAndExpectation) {
     EXPECT_EQ(e.context().key, "a");
     EXPECT_NE(std::string(e.what()).find("expected a number"), std::string::npos);
   }
+}
+
+TEST(ParamDict, NanIsNotANumberButInfinityIsNoBound) {
+  // TOML spells them nan and inf: no nephos parameter means nan, while -inf may stand for "no
+  // lower bound" (configs/masks.toml); get_in() with finite bounds rejects it.
+  auto d = ParamDict::from_string("a = nan\nb = -inf\nc = [1.0, nan]\n", "c.toml");
+  EXPECT_THROW(d.get("a", 0.0), ConfigError);
+  EXPECT_EQ(d.get("b", 0.0), -std::numeric_limits<double>::infinity());
+  EXPECT_THROW(d.get_in("b", 0.0, -1e9, 1e9), ConfigError);
+  EXPECT_THROW(d.get("c", std::vector<double>{}), ConfigError);
+}
+
+TEST(ParamDict, RangedValuesNameKeyLineAndRange) {
+  auto d = ParamDict::from_string("[t]\nx = 2.5\ny = 300\nz = 5000000000\n", "r.toml");
+  const ParamDict t = d.table("t");
+  EXPECT_EQ(t.get_in("x", 0.0, 0.0, 10.0), 2.5);
+  EXPECT_EQ(t.get_in("absent", 7, 0, 10), 7);  // an absent key gives the default
+  try {
+    t.get_in("y", 0, 0, 255);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.context().key, "t.y");
+    EXPECT_EQ(e.context().line, 3);
+    EXPECT_NE(std::string(e.what()).find("must be in [0, 255], got 300"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(t.get_in("x", 0.0, 3.0, 10.0), ConfigError);
+  EXPECT_THROW(t.get("z", 0), ConfigError);  // beyond a 32-bit int: not silently wrapped
 }
 
 TEST(ParamDict, SyntaxErrorHasLine) {

@@ -48,5 +48,9 @@ class ConfigError : public Error {
 class NumericError : public Error {
   using Error::Error;
 };
+/// A request needs more of the machine (memory) than it has.
+class ResourceError : public Error {
+  using Error::Error;
+};
 
 }  // namespace nephos

@@ -6,9 +6,22 @@
 
 namespace nephos {
 
-/// Exactly `count` comma-separated numbers from `text` (e.g. "135,45"). Throws ValueError
-/// naming `key`, the text and the expected form `what` (e.g. "AZIMUTH,ELEVATION in degrees").
+/// Exactly `count` comma-separated finite numbers from `text` (e.g. "135,45"; "nan" and "inf"
+/// are rejected). Throws ValueError naming `key`, the text and the expected form `what` (e.g.
+/// "AZIMUTH,ELEVATION in degrees").
 std::vector<double> parse_numbers(const std::string& text, std::size_t count, const std::string& key,
                                   const std::string& what);
+
+/// Throws ValueError naming `key` unless lo <= value <= hi (NaN fails); `what` names the
+/// quantity with its unit, e.g. "latitude [deg]".
+void require_range(double value, double lo, double hi, const std::string& key, const std::string& what);
+
+/// Throws ResourceError naming `key` when `bytes` exceeds this machine's physical memory: what a
+/// command checks before it allocates, so that a size too large for the machine gets a clear
+/// message instead of std::bad_alloc or the kernel's out-of-memory killer.
+void require_memory(double bytes, const std::string& key, const std::string& what);
+
+/// This machine's physical memory [bytes].
+double physical_memory_bytes();
 
 }  // namespace nephos

@@ -23,4 +23,20 @@ TEST(UtcTime, ParseAndFormatRoundTrip) {
   EXPECT_THROW(UtcTime::parse("2011-13-01"), ValueError);
 }
 
+TEST(UtcTime, DaysBeyondTheMonthAreErrorsNotTheNextMonth) {
+  // Gregorian leap years: divisible by 4, except centuries not divisible by 400.
+  EXPECT_EQ(UtcTime::parse("2000-02-29").iso(), "2000-02-29T00:00:00Z");
+  EXPECT_THROW(UtcTime::parse("1900-02-29"), ValueError);
+  EXPECT_THROW(UtcTime::parse("2023-02-29"), ValueError);
+  EXPECT_THROW(UtcTime::parse("2024-02-30"), ValueError);
+  EXPECT_THROW(UtcTime::parse("2024-04-31"), ValueError);
+  EXPECT_EQ(UtcTime::parse("2024-12-31").iso(), "2024-12-31T00:00:00Z");
+  try {
+    UtcTime::parse("2024-06-31T10:00:00Z");
+    FAIL();
+  } catch (const ValueError& e) {
+    EXPECT_EQ(e.context().key, "time");
+  }
+}
+
 }  // namespace nephos

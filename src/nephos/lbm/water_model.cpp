@@ -18,28 +18,28 @@ namespace nephos::lbm {
 WaterModelParams WaterModelParams::from(const ParamDict& dict) {
   WaterModelParams p;
   const ParamDict m = dict.table("water");
-  p.rho10 = m.get("rho10", p.rho10);
-  p.rho20 = m.get("rho20", p.rho20);
-  p.rest_fraction = m.get("rest_fraction", p.rest_fraction);
-  p.xi_vapour = m.get("xi_vapour", p.xi_vapour);
-  p.xi_temperature = m.get("xi_temperature", p.xi_temperature);
+  p.rho10 = m.get_in("rho10", p.rho10, 1e-6, 1e6);
+  p.rho20 = m.get_in("rho20", p.rho20, -1e6, 1e6);
+  p.rest_fraction = m.get_in("rest_fraction", p.rest_fraction, 0.0, 1.0);
+  p.xi_vapour = m.get_in("xi_vapour", p.xi_vapour, 0.5, 1e3);
+  p.xi_temperature = m.get_in("xi_temperature", p.xi_temperature, 0.5, 1e3);
   p.g12 = m.get("g12", p.g12);
   p.g22 = m.get("g22", p.g22);
   p.buoyancy = m.get("buoyancy", p.buoyancy);
   p.buoyancy_reference = m.get("buoyancy_reference", p.buoyancy_reference);
   p.temperature_bottom = m.get("temperature_bottom", p.temperature_bottom);
   p.temperature_top = m.get("temperature_top", p.temperature_top);
-  p.silos = m.get("silos", p.silos);
-  p.silo_radius_min = m.get("silo_radius_min", p.silo_radius_min);
-  p.silo_radius_max = m.get("silo_radius_max", p.silo_radius_max);
-  p.silo_height_min = m.get("silo_height_min", p.silo_height_min);
-  p.silo_height_max = m.get("silo_height_max", p.silo_height_max);
-  p.vapour_background = m.get("vapour_background", p.vapour_background);
+  p.silos = m.get_in("silos", p.silos, 0, max_silos);
+  p.silo_radius_min = m.get_in("silo_radius_min", p.silo_radius_min, 0.0, 1.0);
+  p.silo_radius_max = m.get_in("silo_radius_max", p.silo_radius_max, 0.0, 1.0);
+  p.silo_height_min = m.get_in("silo_height_min", p.silo_height_min, 0.0, 1.0);
+  p.silo_height_max = m.get_in("silo_height_max", p.silo_height_max, 0.0, 1.0);
+  p.vapour_background = m.get_in("vapour_background", p.vapour_background, 0.0, 2.0);
   p.storage = parse_storage(m.get("storage", std::string(to_string(p.storage))));
   if (!(p.xi_vapour > 0.5) || !(p.xi_temperature > 0.5))
     throw ConfigError("relaxation times must exceed 1/2", {.file = dict.source(), .key = "water.xi_*"});
-  if (p.rest_fraction < 0 || p.rest_fraction > 1)
-    throw ConfigError("must be in [0, 1]", {.file = dict.source(), .key = "water.rest_fraction"});
+  if (p.silo_radius_min > p.silo_radius_max || p.silo_height_min > p.silo_height_max)
+    throw ConfigError("each *_min must not exceed its *_max", {.file = dict.source(), .key = "water.silo_*"});
   return p;
 }
 

@@ -26,6 +26,9 @@
 
 namespace nephos::lbm {
 
+/// The most initial silos a run may ask for.
+inline constexpr int max_silos = 10000;
+
 struct WaterModelParams {
   double rho10 = 1.0;                              ///< maximum effective vapour density (bound of Psi_1)
   double rho20 = 0.505;                            ///< maximum temperature of a phase transition

@@ -269,7 +269,9 @@ TEST(RendererOnGfs, SupersampledPixelsAreTheAreaAverageOfTheFinerImage) {
       EXPECT_EQ(coarse.cloud_type[px] >= 0, fraction > 0) << px;
       partly_cloudy += fraction > 0 && fraction < 1;
       // The centre sub-pixel (odd k) is the point sample: its latitude is the point image's.
-      if (!std::isnan(point.latitude_deg[px])) EXPECT_EQ(coarse.latitude_deg[px], point.latitude_deg[px]) << px;
+      if (!std::isnan(point.latitude_deg[px])) {
+        EXPECT_EQ(coarse.latitude_deg[px], point.latitude_deg[px]) << px;
+      }
     }
   EXPECT_GT(partly_cloudy, 20u) << "pixels with sub-pixel cloud edges in this view";
   EXPECT_GT(differs_from_point, 20u);

@@ -58,15 +58,26 @@ Sensor Sensor::look_at(const earth::Geodetic& from, const earth::Geodetic& targe
 }
 
 Sensor sensor_from(const ParamDict& c, int width, int height) {
-  auto need = [&](const char* key) {
-    if (!c.has(key)) throw ConfigError("missing camera key", {.file = c.source(), .key = std::string("camera.") + key});
-    return c.get(key, 0.0);
+  // A value in [lo, hi] (finite: TOML allows nan and inf).
+  auto in_range = [&](const char* key, double v, double lo, double hi) {
+    if (!(v >= lo && v <= hi))
+      throw ConfigError(fmt::format("must be in [{:g}, {:g}], got {:g}", lo, hi, v),
+                        {.file = c.source(), .key = std::string("camera.") + key});
+    return v;
   };
-  const earth::Geodetic from{need("position_lat_deg"), need("position_lon_deg"), need("position_alt_m")};
-  const earth::Geodetic to{need("look_at_lat_deg"), need("look_at_lon_deg"), c.get("look_at_alt_m", 0.0)};
-  const double fov = need("fov_deg");
+  auto need = [&](const char* key, double lo, double hi) {
+    if (!c.has(key)) throw ConfigError("missing camera key", {.file = c.source(), .key = std::string("camera.") + key});
+    return in_range(key, c.get(key, 0.0), lo, hi);
+  };
+  constexpr double big = 1e12;  // [deg] or [m]: any finite value
+  const earth::Geodetic from{need("position_lat_deg", -90, 90), need("position_lon_deg", -big, big),
+                             need("position_alt_m", -earth::radius_m + 1, big)};
+  const earth::Geodetic to{need("look_at_lat_deg", -90, 90), need("look_at_lon_deg", -big, big),
+                           in_range("look_at_alt_m", c.get("look_at_alt_m", 0.0), -earth::radius_m + 1, big)};
+  const double fov = need("fov_deg", -big, big);  // Sensor::oriented() checks its range
   const std::vector<double> up = c.get("up", std::vector<double>{});
   if (!up.empty() && up.size() != 3) throw ConfigError("expected [x, y, z]", {.file = c.source(), .key = "camera.up"});
+  for (double u : up) in_range("up", u, -big, big);
   const earth::Vec3 hint = up.empty() ? earth::Vec3{} : earth::Vec3{up[0], up[1], up[2]};
   return Sensor::look_at(from, to, fov, width, height, up.empty() ? nullptr : &hint);
 }
@@ -76,6 +87,8 @@ Sensor parse_sensor(const std::string& spec, int width, int height) {
     return Sensor::geostationary(parse_numbers(spec.substr(4), 1, "--sensor", "geo:LON")[0], width, height);
   if (spec.rfind("leo:", 0) == 0) {
     const auto v = parse_numbers(spec.substr(4), 4, "--sensor", "leo:LAT,LON,ALT_KM,FOV_DEG");
+    if (!(v[0] >= -90 && v[0] <= 90))
+      throw ValueError(fmt::format("LEO latitude must be in [-90, 90] deg, got {:g}", v[0]), {.key = "--sensor"});
     if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "--sensor"});
     return Sensor::nadir(v[0], v[1], v[2] * 1e3, v[3], width, height);
   }

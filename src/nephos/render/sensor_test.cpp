@@ -52,8 +52,23 @@ TEST(Sensor, TomlCameraAndErrors) {
   EXPECT_GT(glm::dot(s.forward, earth::local_north(glm::normalize(s.position))), 0.99);  // looking north
   std::ofstream(path) << "[camera]\nposition_lat_deg = 20.0\nbogus = 1\n";
   EXPECT_THROW(parse_sensor(path.string(), 64, 32), ConfigError);
+  // Out of range, or nan (TOML has it): a ConfigError naming the key.
+  for (const char* bad : {"position_lat_deg = 95.0", "position_lat_deg = nan"}) {
+    std::ofstream(path) << "[camera]\n"
+                        << bad
+                        << "\nposition_lon_deg = -60.0\nposition_alt_m = 3000.0\n"
+                           "look_at_lat_deg = 20.5\nlook_at_lon_deg = -60.0\nfov_deg = 60.0\n";
+    try {
+      parse_sensor(path.string(), 64, 32);
+      ADD_FAILURE() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.context().key, std::string("camera.position_lat_deg")) << bad;
+    }
+  }
   std::filesystem::remove(path);
   EXPECT_THROW(parse_sensor("geo:abc", 10, 10), ValueError);
+  EXPECT_THROW(parse_sensor("geo:nan", 10, 10), ValueError);
+  EXPECT_THROW(parse_sensor("leo:91,0,700,10", 10, 10), ValueError);
   EXPECT_THROW(parse_sensor("leo:1,2,3", 10, 10), ValueError);
   EXPECT_THROW(parse_sensor("mars:1", 10, 10), ValueError);
 }
