@@ -37,21 +37,23 @@ MaskParams::MaskParams() {
 MaskParams MaskParams::from(const ParamDict& dict) {
   MaskParams p;
   const ParamDict cf = dict.table("cloud_fraction");
-  p.cloud_fraction.rh_exponent = cf.get("rh_exponent", p.cloud_fraction.rh_exponent);
-  p.cloud_fraction.condensate_coefficient = cf.get("condensate_coefficient", p.cloud_fraction.condensate_coefficient);
-  p.cloud_fraction.min_condensate_kg_kg = cf.get("min_condensate_kg_kg", p.cloud_fraction.min_condensate_kg_kg);
-  p.cloud_fraction.rh_critical = cf.get("rh_critical", p.cloud_fraction.rh_critical);
+  p.cloud_fraction.rh_exponent = cf.get_in("rh_exponent", p.cloud_fraction.rh_exponent, 1e-3, 100.0);
+  p.cloud_fraction.condensate_coefficient =
+      cf.get_in("condensate_coefficient", p.cloud_fraction.condensate_coefficient, 0.0, 1e9);
+  p.cloud_fraction.min_condensate_kg_kg =
+      cf.get_in("min_condensate_kg_kg", p.cloud_fraction.min_condensate_kg_kg, 0.0, 1.0);
+  p.cloud_fraction.rh_critical = cf.get_in("rh_critical", p.cloud_fraction.rh_critical, 0.0, 0.999);
   p.cloud_fraction.use_condensate = cf.get("use_condensate", p.cloud_fraction.use_condensate);
   const ParamDict m = dict.table("masks");
-  p.vertical_step_m = m.get("vertical_step_m", p.vertical_step_m);
-  p.updraft_ramp_pa_s = m.get("updraft_ramp_pa_s", p.updraft_ramp_pa_s);
-  p.temperature_ramp_k = m.get("temperature_ramp_k", p.temperature_ramp_k);
-  p.cloud_top_min_fraction = m.get("cloud_top_min_fraction", p.cloud_top_min_fraction);
+  p.vertical_step_m = m.get_in("vertical_step_m", p.vertical_step_m, 1.0, 10000.0);
+  p.updraft_ramp_pa_s = m.get_in("updraft_ramp_pa_s", p.updraft_ramp_pa_s, 0.0, 100.0);
+  p.temperature_ramp_k = m.get_in("temperature_ramp_k", p.temperature_ramp_k, 0.0, 100.0);
+  p.cloud_top_min_fraction = m.get_in("cloud_top_min_fraction", p.cloud_top_min_fraction, 0.0, 1.0);
   for (int t = 0; t < cloud_type_count; ++t) {
     const ParamDict d = m.table(name(static_cast<CloudType>(t)));
     auto& tp = p.types[static_cast<std::size_t>(t)];
-    tp.band_bottom_m = d.get("band_bottom_m", tp.band_bottom_m);
-    tp.band_top_m = d.get("band_top_m", tp.band_top_m);
+    tp.band_bottom_m = d.get_in("band_bottom_m", tp.band_bottom_m, 0.0, 100e3);
+    tp.band_top_m = d.get_in("band_top_m", tp.band_top_m, 0.0, 100e3);
     tp.updraft_min_pa_s = d.get("updraft_min_pa_s", tp.updraft_min_pa_s);
     tp.updraft_max_pa_s = d.get("updraft_max_pa_s", tp.updraft_max_pa_s);
     tp.temperature_min_c = d.get("temperature_min_c", tp.temperature_min_c);
@@ -70,10 +72,6 @@ MaskParams MaskParams::from(const ParamDict& dict) {
       throw ConfigError("band_top_m must exceed band_bottom_m",
                         {.file = dict.source(), .key = std::string("masks.") + name(static_cast<CloudType>(t))});
   }
-  if (!(p.vertical_step_m > 0))
-    throw ConfigError("must be > 0", {.file = dict.source(), .key = "masks.vertical_step_m"});
-  if (p.updraft_ramp_pa_s < 0 || p.temperature_ramp_k < 0)
-    throw ConfigError("ramp widths must be >= 0", {.file = dict.source(), .key = "masks"});
   return p;
 }
 

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <cstring>
 
@@ -115,6 +117,15 @@ TEST(Masks, ParametersFromTomlRejectUnknownKeys) {
   EXPECT_THROW(d.check_unused(), ConfigError);
   EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks.cirrus]\ntemperature_at = 'middle'\n")), ConfigError);
   EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks.cirrus]\nband_top_m = -5.0\n")), ConfigError);
+  // Values that would make the column walk never end (a 1e-9 m step, a band up to infinity) or
+  // divide by zero (rh_critical = 1) are errors, while inf stays the "no bound" of a threshold.
+  EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks]\nvertical_step_m = 1e-9\n")), ConfigError);
+  EXPECT_THROW(MaskParams::from(ParamDict::from_string("[masks.cirrus]\nband_top_m = inf\n")), ConfigError);
+  EXPECT_THROW(MaskParams::from(ParamDict::from_string("[cloud_fraction]\nrh_critical = 1.0\n")), ConfigError);
+  EXPECT_EQ(MaskParams::from(ParamDict::from_string("[masks.cirrus]\nupdraft_max_pa_s = inf\n"))
+                .types[static_cast<std::size_t>(CloudType::cirrus)]
+                .updraft_max_pa_s,
+            std::numeric_limits<double>::infinity());
 }
 
 TEST(Masks, ShippedParameterFileIsCompleteAndEqualsTheDefaults) {
