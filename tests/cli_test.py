@@ -175,6 +175,7 @@ class Render(unittest.TestCase):
         # One ray per pixel: the cloud fraction is 1 exactly where a cloud top was found, else 0.
         self.assertTrue(np.array_equal(ds["cloud_fraction"].values, cloudy.astype(np.float32)))
         self.assertEqual(ds.attrs["rays_per_pixel"], 1)
+        self.assertEqual(ds.attrs["sub_pixel_sampling"], "centre")
         # Cold cloud tops: brightness temperature below the clear-sky surface's (~>270 K tropics).
         self.assertLess(np.nanmedian(np.where(cloudy, bt, np.nan)), np.nanmedian(np.where(earth & ~cloudy, bt, np.nan)))
 
@@ -198,6 +199,24 @@ class Render(unittest.TestCase):
             a = netCDF4.Dataset(Path(d) / "frame_000" / "render.nc")["cloud_top_altitude"][:]
             b = netCDF4.Dataset(Path(d) / "frame_001" / "render.nc")["cloud_top_altitude"][:]
             self.assertFalse(np.array_equal(np.ma.filled(a, -1), np.ma.filled(b, -1)))
+
+    def test_rays_per_pixel_stratified_or_on_a_grid(self):
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            frac = {}
+            for pattern, extra in (("stratified", []), ("grid", ["--sample-grid"])):
+                out = Path(d) / pattern
+                r = run("render", "--size", "24x24", "--samples", "4", *extra, "--texture", "64", "--types",
+                        "low_cumulus", "--bands", "vis", "--out", out)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                self.assertIn("4 rays per pixel", r.stdout)
+                ds = netCDF4.Dataset(out / "render.nc")
+                self.assertEqual(ds.getncattr("rays_per_pixel"), 4)
+                self.assertEqual(ds.getncattr("sub_pixel_sampling"), pattern)
+                frac[pattern] = ds["cloud_fraction"][:]
+                self.assertTrue(np.array_equal(frac[pattern] * 4, np.round(frac[pattern] * 4)))  # quarters
+            self.assertFalse(np.array_equal(frac["stratified"], frac["grid"]))
 
     def test_bad_input_writes_nothing(self):
         with tempfile.TemporaryDirectory() as d:

@@ -96,6 +96,7 @@ struct RenderOptions {
   std::string bands = "vis,nir,lwir";
   int steps = 25;
   int samples = 1;             // rays per pixel, k^2
+  bool sample_grid = false;    // sub-pixel rays at the sub-pixels' centres instead of stratified
   int texture = 0;             // 0: the config's [textures] size (default 256)
   std::string displace_hours;  // empty: per-type defaults
   double advance_hours = 0;
@@ -204,6 +205,8 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   if (o.samples < 1 || o.samples > 256 || rp.samples_per_axis * rp.samples_per_axis != o.samples)
     throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", o.samples),
                      {.key = "--samples"});
+  rp.stratified_samples = !o.sample_grid;
+  rp.sample_seed = g.seed;
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   require_range(o.advance_hours, -max_displacement_hours, max_displacement_hours, "--advance-hours",
                 "the advance per frame [h]");
@@ -257,6 +260,9 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
                                o.steps,
                                tex,
                                o.samples,
+                               o.samples == 1  ? "centre"
+                               : o.sample_grid ? "grid"
+                                               : "stratified",
                                {}};
     for (auto t : types) meta.types.emplace_back(weather::name(t));
     render::write_render_netcdf(dir / "render.nc", img, meta);
@@ -759,8 +765,11 @@ int main(int argc, char** argv) {
   rend->add_option("--bands", ro.bands, "Bands: vis, nir, lwir")->capture_default_str();
   rend->add_option("--steps", ro.steps, "Ray-marching steps per shell")->capture_default_str();
   rend->add_option("--samples", ro.samples,
-                   "Rays per pixel, a square k^2 (1, 4, 9, ... 256): the mean of a k x k sub-pixel grid")
+                   "Rays per pixel, a square k^2 (1, 4, 9, ... 256): the mean of one ray per sub-pixel of a k x k "
+                   "grid, each at a hashed point of its sub-pixel (stratified)")
       ->capture_default_str();
+  rend->add_flag("--sample-grid", ro.sample_grid,
+                 "With --samples: each ray at its sub-pixel's centre (a regular grid) instead of stratified");
   rend->add_option("--texture", ro.texture,
                    "Fractal texture size N (N^3 voxels, power of two 8..1024; default 256 or the config's [textures] "
                    "size)");

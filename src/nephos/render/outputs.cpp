@@ -75,6 +75,7 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
   nc.put_attribute(io::NetcdfWriter::global, "ray_marching_steps", static_cast<double>(meta.steps));
   nc.put_attribute(io::NetcdfWriter::global, "texture_size", static_cast<double>(meta.texture_size));
   nc.put_attribute(io::NetcdfWriter::global, "rays_per_pixel", static_cast<double>(meta.rays_per_pixel));
+  nc.put_attribute(io::NetcdfWriter::global, "sub_pixel_sampling", meta.sub_pixel_sampling);
   std::string types;
   for (const auto& t : meta.types) types += (types.empty() ? "" : " ") + t;
   nc.put_attribute(io::NetcdfWriter::global, "cloud_types", types);

@@ -15,6 +15,7 @@ struct FrameMetadata {
   std::uint64_t seed = 0;
   int steps = 0, texture_size = 0;
   int rays_per_pixel = 1;
+  std::string sub_pixel_sampling = "centre";  ///< "centre" (one ray), "grid" or "stratified"
   std::vector<std::string> types;
 };
 

@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
 #include "nephos/core/progress.hpp"
 
 namespace nephos::render {
@@ -292,6 +293,16 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   }
 }
 
+std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bool stratified, std::uint64_t seed) {
+  double u = 0.5, v = 0.5;
+  if (stratified && !(k % 2 == 1 && i == k / 2 && j == k / 2)) {
+    const auto px = static_cast<std::uint64_t>(y) << 32 | static_cast<std::uint32_t>(x);
+    const auto sub = static_cast<std::uint64_t>(j * k + i);
+    u = uniform01(seed, 0x5b9, px, sub, 0), v = uniform01(seed, 0x5b9, px, sub, 1);
+  }
+  return {(i + u) / k, (j + v) / k};
+}
+
 namespace {
 
 // The bands of a render and their Planck tables, built once per render (each table holds
@@ -308,11 +319,31 @@ struct BandTables {
   }
 };
 
-// One ray per pixel, through the point (x + dx, y + dy) of pixel (x, y); radiances, no
+// Where one pass of sub-pixel rays crosses each pixel: sub-pixel (i, j) of a k x k grid, at
+// its centre or, stratified, at a point hashed from the seed, the pixel and the sub-pixel
+// (uniform in the sub-pixel; the centre sub-pixel of an odd k stays at the pixel centre, the
+// point sample that gives each pixel's latitude and longitude).
+struct SubPixel {
+  int i = 0, j = 0, k = 1;
+  bool stratified = false;
+  std::uint64_t seed = 0;
+  std::pair<double, double> offset(int x, int y) const { return sub_pixel_offset(x, y, i, j, k, stratified, seed); }
+  // The rays of image row y.
+  void row_rays(const Sensor& sensor, int y, earth::Vec3* out) const {
+    if (!stratified) return sensor.row_rays(y, out, (i + 0.5) / k, (j + 0.5) / k);
+    const double t = std::tan(0.5 * sensor.fov_deg * earth::deg);
+    for (int x = 0; x < sensor.width; ++x) {
+      const auto [dx, dy] = offset(x, y);
+      out[x] = sensor.ray(x + dx, y + dy, t);
+    }
+  }
+};
+
+// One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, no
 // brightness temperatures (render() converts the final radiances).
 RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                       const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
-                      double dx, double dy, Progress& progress) {
+                      const SubPixel& sub, Progress& progress) {
   const int w = sensor.width, h = sensor.height;
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   const std::size_t nb = params.bands.size();
@@ -340,7 +371,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < h; ++y) {
     std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    sensor.row_rays(y, dirs.data(), dx, dy);
+    sub.row_rays(sensor, y, dirs.data());
     for (int x = 0; x < w; ++x) {
       const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
       const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
@@ -368,7 +399,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
       std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
       std::vector<double> t_max(static_cast<std::size_t>(w));
       std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-      sensor.row_rays(y, dirs.data(), dx, dy);
+      sub.row_rays(sensor, y, dirs.data());
       for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
       march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
                   params.bisection_iterations, row_hits.data());
@@ -415,9 +446,11 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
 #pragma omp parallel for schedule(static)
   for (int y = 0; y < h; ++y) {
     std::vector<std::size_t> order(ns);
+    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+    sub.row_rays(sensor, y, dirs.data());
     for (int x = 0; x < w; ++x) {
       const std::size_t px = static_cast<std::size_t>(y) * w + x;
-      const earth::Vec3 d = sensor.ray(x + dx, y + dy);
+      const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
       std::array<double, 3> bg{0, 0, 0};
       if (std::isfinite(t_earth[px])) {
         const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[px]) * d;
@@ -487,7 +520,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
                                   static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
   const BandTables tables(params.bands);
   if (k == 1) {
-    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, 0.5, 0.5, progress);
+    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, progress);
     add_brightness_temperatures(img, tables);
     return img;
   }
@@ -503,7 +536,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const int centre = k / 2;  // the sub-pixel nearest the centre (the centre for odd k)
   for (int j = 0; j < k; ++j)
     for (int i = 0; i < k; ++i) {
-      RenderImage sub = render_at(scene, sensor, sun, params, weather, tables, (i + 0.5) / k, (j + 0.5) / k, progress);
+      RenderImage sub = render_at(scene, sensor, sun, params, weather, tables,
+                                  SubPixel{i, j, k, params.stratified_samples, params.sample_seed}, progress);
 #pragma omp parallel for schedule(static)
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];

@@ -6,6 +6,7 @@
 // radiometry per band and front-to-back compositing of the cloud types.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nephos/clouds/cloud_model.hpp"
@@ -26,6 +27,12 @@ struct RenderParams {
   /// k: each pixel is sampled on a k x k grid of sub-pixel rays (--samples k^2, 1..16 per
   /// axis) and its radiance is their mean, the detector's integral over its footprint.
   int samples_per_axis = 1;
+  /// With k > 1: each sub-pixel's ray at a point hashed from sample_seed, the pixel and the
+  /// sub-pixel, uniform within the sub-pixel (stratified sampling: the periodic fractal
+  /// textures' moire becomes fine noise), instead of at the sub-pixel's centre (a regular grid:
+  /// exactly the area average of the image rendered k times finer). --sample-grid sets false.
+  bool stratified_samples = true;
+  std::uint64_t sample_seed = 0;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
 };
 
@@ -59,10 +66,17 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
                  std::size_t n, int steps, int bisection_iterations, ShellHit* hits);
 
+/// Where the ray of sub-pixel (i, j) of a k x k grid crosses pixel (x, y) [pixels from its
+/// top-left corner, 0..1 each]: the sub-pixel's centre, or with `stratified` a point uniform in
+/// the sub-pixel hashed from seed, pixel and sub-pixel (the centre sub-pixel of an odd k stays
+/// at the pixel centre).
+std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bool stratified, std::uint64_t seed);
+
 /// Renders all shells of `scene` from `sensor`. `weather` (optional) gives the surface
 /// temperature for the thermal background. With params.samples_per_axis = k > 1 every pixel
-/// is the mean of k x k rays through the centres of a k x k grid of sub-pixels (the area
-/// average of the image rendered k times finer): radiance and optical depth are their means
+/// is the mean of k x k rays, one through each sub-pixel of a k x k grid (at its centre, the
+/// area average of the image rendered k times finer, or stratified: see RenderParams;
+/// bit-identical whatever the thread count either way): radiance and optical depth are their means
 /// (brightness temperature is that of the mean radiance), cloud_fraction the share of them
 /// that meet cloud, cloud_top_altitude the mean over those, cloud_type the most frequent type
 /// among them (the lower type number on a tie), and latitude/longitude those of the sub-pixel

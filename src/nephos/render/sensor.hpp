@@ -20,6 +20,12 @@ struct Sensor {
 
   /// Unit direction of the ray through image point (x, y) in pixels (0,0 = top-left corner).
   earth::Vec3 ray(double x, double y) const { return ray(x, y, std::tan(0.5 * fov_deg * earth::deg)); }
+  /// ray(x, y) with tan(fov_deg / 2) given (computed once for many rays).
+  earth::Vec3 ray(double x, double y, double tan_half_fov) const {
+    const double sx = (2.0 * x / width - 1.0) * tan_half_fov;
+    const double sy = (1.0 - 2.0 * y / height) * tan_half_fov * height / width;
+    return glm::normalize(forward + sx * right + sy * up);
+  }
   /// The rays through the points (x + dx, row + dy) of the pixels of image row `row`, out[0 ..
   /// width - 1]: by default their centres (ray(x + 0.5, row + 0.5), with the field of view's
   /// tangent computed once).
@@ -37,13 +43,6 @@ struct Sensor {
   /// default the local vertical at `from`.
   static Sensor look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
                         int height, const earth::Vec3* up_hint = nullptr);
-
- private:
-  earth::Vec3 ray(double x, double y, double tan_half_fov) const {
-    const double sx = (2.0 * x / width - 1.0) * tan_half_fov;
-    const double sy = (1.0 - 2.0 * y / height) * tan_half_fov * height / width;
-    return glm::normalize(forward + sx * right + sy * up);
-  }
 };
 
 /// "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG", or a TOML file with a [camera] table
