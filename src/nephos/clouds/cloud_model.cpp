@@ -344,8 +344,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
         ++nlive;
       }
     }
-    // Stage 2: footprints (texture coordinates in tiles, reduced in double before the float
-    // lookup) and bounds.
+    // Stage 2: footprints of every term (texture coordinates in tiles, reduced in double
+    // before the float lookup), then their bounds.
     for (std::size_t t = 0; t < nt; ++t) {
       const int i = terms[t];
       const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
@@ -361,6 +361,17 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
         f.set(a, tex.footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
                                static_cast<float>(qz - std::floor(qz))));
       }
+      // The bounds table (512 KiB per texture) lives in L3, not L2: its lines are requested
+      // here and read after the other terms' footprints (a few per cent of the shell pass in
+      // alternating single-thread runs, docs/PERFORMANCE.md).
+      if (early_out)
+        for (std::size_t a = 0; a < nlive; ++a) tex.prefetch_bounds(f.block[a]);
+    }
+    for (std::size_t t = 0; t < nt; ++t) {
+      const int i = terms[t];
+      const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+      const noise::Texture3D& tex = (*tex_)[i];
+      Footprints& f = w.f[t];
       if (early_out) {  // value() adds every term: no bounds needed
         const double weight = term.weight;
 #pragma omp simd

@@ -96,6 +96,8 @@ class Texture3D {
     return {static_cast<float>(b & 0xffu) * (1.0f / texel_max) - 1e-6f,
             static_cast<float>(b >> 8) * (1.0f / texel_max) + 1e-6f};
   }
+  /// Starts loading block_bounds(block)'s cache line.
+  void prefetch_bounds(std::uint32_t block) const { __builtin_prefetch(block_bounds_.data() + block); }
   /// Recomputes the block bounds after data() was written (bake() does this).
   void update_bounds();
   /// Starts loading the cache lines of sample(f)'s two opposite corners: the one line that a
