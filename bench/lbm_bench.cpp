@@ -12,6 +12,7 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/core/parse.hpp"
 #include "nephos/lbm/bgk.hpp"
 #include "nephos/lbm/lighting.hpp"
 #include "nephos/lbm/percolation.hpp"
@@ -66,6 +67,8 @@ class Triad {
 
 int run_lbm_bench(const LbmBenchOptions& o, std::uint64_t seed) {
   const int s = o.size;
+  // The process peaked at 1399 MiB at 128^3 with every kernel (docs/PERFORMANCE.md): ~700 B/cell.
+  require_memory(700.0 * s * s * s, "--size", fmt::format("the {}^3 lattice benchmarks", s));
   // chain: percolation, lighting and ray casting, which share their inputs.
   bool run_bgk = false, run_water = false, run_water16 = false, run_chain = false;
   std::stringstream list(o.kernels);

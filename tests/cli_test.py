@@ -621,6 +621,18 @@ class Particles(unittest.TestCase):
             self.assertFalse(out.exists())
 
 class Bench(unittest.TestCase):
+    def test_zero_repeats_or_frames_are_errors_not_crashes(self):
+        # Each of these took the median of nothing and crashed with a segmentation fault.
+        for args, needle in ((["render", "--repeat", "0", "--quick"], "--repeat"),
+                             (["fly", "--frames", "0", "--tests", "E"], "--frames"),
+                             (["lbm", "--size", "16", "--repeat", "0"], "--repeat"),
+                             (["particles", "--frames", "0"], "--frames"), (["lbm", "--size", "2"], "--size"),
+                             (["particles", "--max-count", "0"], "--max-count")):
+            r = run("bench", *args)
+            self.assertEqual(r.returncode, 2, args)
+            self.assertIn(needle, r.stderr)
+        Info.assert_input_error(self, run("bench", "lbm", "--size", "1024", "--kernels", "bgk"), "more than this machine's")
+
     def test_render_bench_smoke(self):
         r = run("bench", "render", "--quick", "--repeat", "1")
         self.assertEqual(r.returncode, 0, r.stderr)

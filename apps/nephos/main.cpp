@@ -840,24 +840,34 @@ int main(int argc, char** argv) {
   auto* bench_render = bench->add_subcommand("render", "Table 3 configurations of the fractal renderer");
   bench_render->add_option("--type", rbo.type, "Cloud type to render")->capture_default_str();
   bench_render->add_option("--repeat", rbo.repeat, "Timed repetitions per configuration (median reported)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
   bench::FlyBenchOptions fbo;
   auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
-  bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str();
+  bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str()->check(CLI::Range(1, 100000));
   bench_fly->add_option("--tests", fbo.tests, "Which of the thesis's tests A-E to run (letters, e.g. E)")
       ->capture_default_str();
   bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
   bench::ParticlesBenchOptions pbo;
   auto* bench_part =
       bench->add_subcommand("particles", "Particle generation rate and frame times, with and without LOD");
-  bench_part->add_option("--frames", pbo.frames, "Frames per case (median reported)")->capture_default_str();
-  bench_part->add_option("--max-count", pbo.max_count, "Largest particle count (10^5 and 10^6 by default)")
-      ->capture_default_str();
+  bench_part->add_option("--frames", pbo.frames, "Frames per case (median reported)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  bench_part
+      ->add_option("--max-count", pbo.max_count,
+                   "Largest particle count: 100000 or more (10^5 and 10^6 by default; 10^5 alone below 10^6)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t{100000}, std::size_t{1000000000}));
   bench::LbmBenchOptions lbo;
   auto* bench_lbm = bench->add_subcommand("lbm", "Lattice-Boltzmann kernels beside the memory roofline");
-  bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells)")->capture_default_str();
-  bench_lbm->add_option("--repeat", lbo.repeat, "Timed repetitions (median reported)")->capture_default_str();
+  bench_lbm->add_option("--size", lbo.size, "Lattice edge (N^3 cells, 8..1024)")
+      ->capture_default_str()
+      ->check(CLI::Range(8, 1024));
+  bench_lbm->add_option("--repeat", lbo.repeat, "Timed repetitions (median reported)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   bench_lbm
       ->add_option(
           "--kernels", lbo.kernels,
