@@ -125,10 +125,6 @@ std::vector<std::string> split_distinct(const std::string& list, const std::stri
   return items;
 }
 
-/// The longest wind displacement or animation advance [h]: ten days, the length of a GFS
-/// forecast (the integration runs one step per displacement step, 30 min by default).
-constexpr double max_displacement_hours = 240;
-
 std::pair<int, int> parse_size(const std::string& s) {
   int w = 0, h = 0;
   char x = 0;
@@ -208,12 +204,13 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   rp.stratified_samples = !o.sample_grid;
   rp.sample_seed = g.seed;
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
-  require_range(o.advance_hours, -max_displacement_hours, max_displacement_hours, "--advance-hours",
-                "the advance per frame [h]");
+  require_range(o.advance_hours, -clouds::CloudModelParams::max_displace_hours,
+                clouds::CloudModelParams::max_displace_hours, "--advance-hours", "the advance per frame [h]");
   std::optional<double> displace_hours;
   if (!o.displace_hours.empty()) {
     displace_hours = parse_numbers(o.displace_hours, 1, "--displace-hours", "hours")[0];
-    require_range(*displace_hours, 0, max_displacement_hours, "--displace-hours", "the wind displacement [h]");
+    require_range(*displace_hours, 0, clouds::CloudModelParams::max_displace_hours, "--displace-hours",
+                  "the wind displacement [h]");
   }
   clouds::CloudModelParams cp;
   weather::MaskParams mp;
@@ -226,8 +223,10 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   if (o.texture != 0) cp.texture_size = o.texture;
   // The textures: three N^3 voxel grids of one byte each.
   const int tex = cp.texture_size;
-  if (tex < 8 || tex > 1024 || (tex & (tex - 1)) != 0)
-    throw ValueError(fmt::format("texture size must be a power of two from 8 to 1024, got {}", tex),
+  using clouds::CloudModelParams;
+  if (tex < CloudModelParams::min_texture_size || tex > CloudModelParams::max_texture_size || (tex & (tex - 1)) != 0)
+    throw ValueError(fmt::format("texture size must be a power of two from {} to {}, got {}",
+                                 CloudModelParams::min_texture_size, CloudModelParams::max_texture_size, tex),
                      {.key = "--texture"});
   require_memory(3.0 * std::pow(tex, 3), "--texture", fmt::format("three {}^3 fractal textures", tex));
   if (displace_hours)

@@ -54,11 +54,11 @@ CloudModelParams::CloudModelParams() {
 
 CloudModelParams CloudModelParams::from(const ParamDict& dict) {
   // Ranges: what the model can use, not what is typical (docs/render.md). Shells and winds
-  // within 100 km of the surface; displacements up to ten days, the length of a GFS forecast.
-  constexpr double max_altitude_m = 100e3, max_displace_hours = 240;
+  // within 100 km of the surface.
+  constexpr double max_altitude_m = 100e3;
   CloudModelParams p;
   const ParamDict t = dict.table("textures");
-  p.texture_size = t.get_in("size", p.texture_size, 8, 1024);
+  p.texture_size = t.get_in("size", p.texture_size, min_texture_size, max_texture_size);
   const ParamDict d = dict.table("displacement");
   p.displacement_cube_size = d.get_in("cube_size", p.displacement_cube_size, 4, 2048);
   p.displacement_step_s = d.get_in("step_s", p.displacement_step_s, 1.0, 86400.0);

@@ -65,6 +65,11 @@ struct CloudTypeParams {
 };
 
 struct CloudModelParams {
+  /// The texture sizes the model accepts (powers of two): three N^3 byte textures, 3 GiB at most.
+  static constexpr int min_texture_size = 8, max_texture_size = 1024;
+  /// The longest wind displacement or animation advance [h]: ten days, the length of a GFS
+  /// forecast (the trajectory integration takes one step per displacement step).
+  static constexpr double max_displace_hours = 240;
   int texture_size = 256;
   noise::FractalSpec coarse{noise::FractalKind::perlin, 4, 5, 0.5, false};
   noise::FractalSpec fine{noise::FractalKind::perlin, 8, 4, 0.55, false};

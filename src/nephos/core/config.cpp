@@ -51,11 +51,15 @@ const void* ParamDict::node(std::string_view key) const {
   return n;
 }
 
-void ParamDict::type_error(std::string_view key, const char* expected) const {
+void ParamDict::fail(std::string_view key, const std::string& message) const {
   const toml::node* n = table_->get(key);
-  throw ConfigError(std::string("expected ") + expected, {.file = shared_->source,
-                                                          .key = prefix_ + std::string(key),
-                                                          .line = n ? static_cast<int>(n->source().begin.line) : 0});
+  throw ConfigError(message, {.file = shared_->source,
+                              .key = prefix_ + std::string(key),
+                              .line = n ? static_cast<int>(n->source().begin.line) : 0});
+}
+
+void ParamDict::type_error(std::string_view key, const char* expected) const {
+  fail(key, std::string("expected ") + expected);
 }
 
 bool ParamDict::has(std::string_view key) const { return table_->contains(key); }
@@ -81,12 +85,7 @@ int ParamDict::get_in(std::string_view key, int fallback, int lo, int hi) const 
   return static_cast<int>(v);
 }
 
-void ParamDict::range_error(std::string_view key, const std::string& range) const {
-  const toml::node* n = table_->get(key);
-  throw ConfigError("must be in " + range, {.file = shared_->source,
-                                            .key = prefix_ + std::string(key),
-                                            .line = n ? static_cast<int>(n->source().begin.line) : 0});
-}
+void ParamDict::range_error(std::string_view key, const std::string& range) const { fail(key, "must be in " + range); }
 
 std::int64_t ParamDict::get(std::string_view key, std::int64_t fallback) const {
   auto n = static_cast<const toml::node*>(node(key));

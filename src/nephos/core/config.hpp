@@ -55,6 +55,8 @@ class ParamDict {
   struct Shared;
   ParamDict(std::shared_ptr<Shared> shared, const toml::table* table, std::string prefix);
   const void* node(std::string_view key) const;
+  /// Throws ConfigError with `message`, naming the file, the full key and its line.
+  [[noreturn]] void fail(std::string_view key, const std::string& message) const;
   [[noreturn]] void type_error(std::string_view key, const char* expected) const;
   [[noreturn]] void range_error(std::string_view key, const std::string& range) const;
 

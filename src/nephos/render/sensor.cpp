@@ -1,6 +1,7 @@
 #include "nephos/render/sensor.hpp"
 
 #include <fmt/format.h>
+#include <cmath>
 #include <filesystem>
 #include <vector>
 
@@ -58,26 +59,20 @@ Sensor Sensor::look_at(const earth::Geodetic& from, const earth::Geodetic& targe
 }
 
 Sensor sensor_from(const ParamDict& c, int width, int height) {
-  // A value in [lo, hi] (finite: TOML allows nan and inf).
-  auto in_range = [&](const char* key, double v, double lo, double hi) {
-    if (!(v >= lo && v <= hi))
-      throw ConfigError(fmt::format("must be in [{:g}, {:g}], got {:g}", lo, hi, v),
-                        {.file = c.source(), .key = std::string("camera.") + key});
-    return v;
-  };
   auto need = [&](const char* key, double lo, double hi) {
     if (!c.has(key)) throw ConfigError("missing camera key", {.file = c.source(), .key = std::string("camera.") + key});
-    return in_range(key, c.get(key, 0.0), lo, hi);
+    return c.get_in(key, 0.0, lo, hi);
   };
   constexpr double big = 1e12;  // [deg] or [m]: any finite value
   const earth::Geodetic from{need("position_lat_deg", -90, 90), need("position_lon_deg", -big, big),
                              need("position_alt_m", -earth::radius_m + 1, big)};
   const earth::Geodetic to{need("look_at_lat_deg", -90, 90), need("look_at_lon_deg", -big, big),
-                           in_range("look_at_alt_m", c.get("look_at_alt_m", 0.0), -earth::radius_m + 1, big)};
+                           c.get_in("look_at_alt_m", 0.0, -earth::radius_m + 1, big)};
   const double fov = need("fov_deg", -big, big);  // Sensor::oriented() checks its range
   const std::vector<double> up = c.get("up", std::vector<double>{});
   if (!up.empty() && up.size() != 3) throw ConfigError("expected [x, y, z]", {.file = c.source(), .key = "camera.up"});
-  for (double u : up) in_range("up", u, -big, big);
+  for (double u : up)
+    if (!std::isfinite(u)) throw ConfigError("expected finite numbers", {.file = c.source(), .key = "camera.up"});
   const earth::Vec3 hint = up.empty() ? earth::Vec3{} : earth::Vec3{up[0], up[1], up[2]};
   return Sensor::look_at(from, to, fov, width, height, up.empty() ? nullptr : &hint);
 }
