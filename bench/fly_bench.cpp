@@ -1,5 +1,6 @@
 #include "fly_bench.hpp"
 #include "machine.hpp"
+#include "stats.hpp"
 
 #include <sys/resource.h>
 
@@ -27,15 +28,6 @@ double cpu_seconds() {
   getrusage(RUSAGE_SELF, &u);
   return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
-}
-double mean(const std::vector<double>& v) {
-  double sum = 0;
-  for (double x : v) sum += x;
-  return sum / static_cast<double>(v.size());
 }
 
 // The thesis's flight: straight and level at 8000 ft, 250 kt, 30 frames per second of flight,

@@ -1,5 +1,6 @@
 #include "lbm_bench.hpp"
 #include "machine.hpp"
+#include "stats.hpp"
 
 #include <fmt/format.h>
 #include <algorithm>
@@ -21,11 +22,6 @@
 
 namespace nephos::bench {
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 template <class F>
 double median_seconds(int repeat, F&& f) {

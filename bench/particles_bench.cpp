@@ -1,5 +1,6 @@
 #include "particles_bench.hpp"
 #include "machine.hpp"
+#include "stats.hpp"
 
 #include <fmt/format.h>
 
@@ -14,10 +15,6 @@
 
 namespace nephos::bench {
 namespace {
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }

@@ -1,5 +1,6 @@
 #include "render_bench.hpp"
 #include "machine.hpp"
+#include "stats.hpp"
 
 #include <fmt/format.h>
 #include <algorithm>
@@ -26,8 +27,7 @@ double time_shell_ms(const clouds::CloudScene& scene, const render::Sensor& sens
     const render::RenderImage img = render::render(scene, sensor, sun, rp, &w);
     ms.push_back(img.seconds_per_type.at(0).second * 1e3);
   }
-  std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
+  return median(std::move(ms));
 }
 
 }  // namespace

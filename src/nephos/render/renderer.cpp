@@ -62,17 +62,22 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
 
 namespace {
 
-// The smaller root of |o + t d|^2 = radius^2 and the larger one (earth::ray_sphere's
-// arithmetic, branch-free for vectorised loops); disc < 0 when the ray misses.
-struct Roots {
-  double t0, t1, disc;
-};
-[[gnu::always_inline]] inline Roots sphere_roots(double b, double c) {
-  const double disc = std::fma(b, b, -c);
-  const double s = std::sqrt(std::max(disc, 0.0));
+// std::min and std::max by value, with their results (b < a ? b : a; a < b ? b : a). In an
+// `omp simd` loop GCC 12 turns the reference-returning std:: forms into a choice of address
+// and a load, a masked gather it does not vectorise.
+[[gnu::always_inline]] inline double min_v(double a, double b) { return b < a ? b : a; }
+[[gnu::always_inline]] inline double max_v(double a, double b) { return a < b ? b : a; }
+
+// The smaller root t0 of |o + t d|^2 = radius^2 and the larger one t1 (earth::ray_sphere's
+// arithmetic, branch-free for vectorised loops); disc < 0 when the ray misses. Results through
+// references, not a struct: under `omp simd` a struct local becomes an array of structs per
+// vector lane, whose stores GCC 12 cannot vectorise.
+[[gnu::always_inline]] inline void sphere_roots(double b, double c, double& t0, double& t1, double& disc) {
+  disc = std::fma(b, b, -c);
+  const double s = std::sqrt(max_v(disc, 0.0));
   const double q = b > 0 ? -b - s : -b + s;
   const double r0 = q, r1 = q != 0 ? c / q : -b;
-  return {std::min(r0, r1), std::max(r0, r1), disc};
+  t0 = min_v(r0, r1), t1 = max_v(r0, r1);
 }
 
 // Per-thread scratch of march_shell(), structure of arrays (one row of rays at a time), kept
@@ -132,71 +137,75 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   //    inner sphere when a ray grazes below the shell bottom without reaching the ground).
   const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
   const double oo = glm::dot(o, o), c_top = oo - r_top * r_top, c_bottom = oo - r_bottom * r_bottom;
+  // 2. (In the same loop, for every ray.) Empty-space skipping: look up the mask's
+  //    neighbourhood maximum along the path, one lookup per skip radius of arc; a ray whose
+  //    whole path sees no possible cloud costs nothing more. The arc between the path's ends
+  //    is bounded by its chord c without trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 -
+  //    c^2/4)); most paths (steep views) are shorter than one skip radius, and one lookup at
+  //    their start covers them. All lookups are batched: the start of every ray, then the far
+  //    end and the interior points of the long paths still undecided. A ray that misses the
+  //    shell (a GEO frame's space pixels) looks up a dummy direction and is dropped after.
+  // The loop vectorises (GCC 12, -fopt-info-vec) only as written: the origin and directions read
+  // as plain doubles (not through the reference or glm's union members), stores through raw
+  // pointers, the booleans combined with & (no short-circuit branches), no struct locals and
+  // no std::min/max (see above).
+  const double inv_radius = 1 / shell.skip_radius_rad();
+  const double ox = o.x, oy = o.y, oz = o.z;
+  static_assert(sizeof(earth::Vec3) == 3 * sizeof(double));
+  const double* dxyz = &d[0].x;
+  w.resize_ends(n);
+  // Raw pointers: through the vectors, every store could move their own data pointers.
+  double *pa0 = w.a0.data(), *pla = w.la.data(), *pb0 = w.b0.data(), *pb1 = w.b1.data(), *plen = w.len.data();
+  double *ex = w.ex.data(), *ey = w.ey.data(), *ez = w.ez.data();
+  std::uint8_t* in_shell = w.in_shell.data();
+  int* segments = w.segments.data();
 #pragma omp simd
   for (std::size_t i = 0; i < n; ++i) {
-    const double b = std::fma(o.z, d[i].z, std::fma(o.y, d[i].y, o.x * d[i].x));
-    const Roots outer = sphere_roots(b, c_top), inner = sphere_roots(b, c_bottom);
-    const double t0 = std::max(outer.t0, 0.0), t1 = std::min(outer.t1, t_max[i]);
-    bool ok = outer.disc >= 0 && outer.t1 > 0 && t1 > t0;
-    double a0 = t0, a1 = t1, b0 = 0, b1 = 0;
-    const bool meets_inner = inner.disc >= 0 && inner.t1 > t0;
+    const double dx = dxyz[3 * i], dy = dxyz[3 * i + 1], dz = dxyz[3 * i + 2];
+    const double b = std::fma(oz, dz, std::fma(oy, dy, ox * dx));
+    double out_t0, out_t1, out_disc, in_t0, in_t1, in_disc;
+    sphere_roots(b, c_top, out_t0, out_t1, out_disc);
+    sphere_roots(b, c_bottom, in_t0, in_t1, in_disc);
+    const double t0 = max_v(out_t0, 0.0), t1 = min_v(out_t1, t_max[i]);
     // Enters the inner sphere ahead: cut there, resume where it leaves. Starts inside it
     // (camera below the shell): from its exit.
-    const bool ahead = meets_inner && inner.t0 > t0, from_exit = meets_inner && !(inner.t0 > t0);
-    a1 = ahead ? std::min(inner.t0, t1) : a1;
-    b0 = ahead ? inner.t1 : b0;
-    b1 = ahead ? t1 : b1;
-    a0 = from_exit ? inner.t1 : a0;
-    ok = ok && !(from_exit && a0 >= t1);
-    const double la = a1 - a0, len = la + std::max(0.0, b1 - b0);
-    ok = ok && len > 0;
-    w.a0[i] = a0, w.la[i] = la, w.b0[i] = b0, w.b1[i] = b1, w.len[i] = len, w.in_shell[i] = ok;
-  }
-  // 2. Empty-space skipping: look up the mask's neighbourhood maximum along the path, one
-  //    lookup per skip radius of arc; a ray whose whole path sees no possible cloud costs
-  //    nothing more. The arc between the path's ends is bounded by its chord c without
-  //    trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 - c^2/4)); most paths (steep views) are
-  //    shorter than one skip radius, and one lookup at their start covers them. All lookups
-  //    are batched: the start of every ray, then the far end and the interior points of the
-  //    long paths still undecided.
-  //    Only the rays that cross the shell are looked up (a GEO frame's space pixels do not).
-  const double inv_radius = 1 / shell.skip_radius_rad();
-  std::size_t nc = 0;  // rays crossing the shell, compacted into idx
-  w.idx.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
-    if (w.in_shell[i]) w.idx[nc++] = static_cast<std::uint32_t>(i);
-  w.resize_ends(nc);
-#pragma omp simd
-  for (std::size_t c = 0; c < nc; ++c) {
-    const std::uint32_t i = w.idx[c];
-    const double len = w.len[i];
-    const double t0 = w.a0[i], t1 = len <= w.la[i] ? w.a0[i] + len : w.b0[i] + (len - w.la[i]);
-    const double x0 = std::fma(t0, d[i].x, o.x), y0 = std::fma(t0, d[i].y, o.y), z0 = std::fma(t0, d[i].z, o.z);
-    const double x1 = std::fma(t1, d[i].x, o.x), y1 = std::fma(t1, d[i].y, o.y), z1 = std::fma(t1, d[i].z, o.z);
+    const bool meets_inner = (in_disc >= 0) & (in_t1 > t0);
+    const bool ahead = meets_inner & (in_t0 > t0), from_exit = meets_inner & !(in_t0 > t0);
+    const double a0 = from_exit ? in_t1 : t0, a1 = ahead ? min_v(in_t0, t1) : t1;
+    const double b0 = ahead ? in_t1 : 0.0, b1 = ahead ? t1 : 0.0;
+    const double la = a1 - a0, len = la + max_v(0.0, b1 - b0);
+    // (from_exit & (in_t1 >= t1)) is from_exit & (a0 >= t1), without a choice between booleans.
+    const bool ok = (out_disc >= 0) & (out_t1 > 0) & (t1 > t0) & !(from_exit & (in_t1 >= t1)) & (len > 0);
+    pa0[i] = a0, pla[i] = la, pb0[i] = b0, pb1[i] = b1, plen[i] = len, in_shell[i] = ok;
+    // The path's ends, Path::t_at(0) and t_at(len).
+    const double s1 = len <= la ? a0 + len : b0 + (len - la);
+    const double x0 = ok ? std::fma(a0, dx, ox) : 1.0, y0 = ok ? std::fma(a0, dy, oy) : 0.0,
+                 z0 = ok ? std::fma(a0, dz, oz) : 0.0;
+    const double x1 = ok ? std::fma(s1, dx, ox) : 1.0, y1 = ok ? std::fma(s1, dy, oy) : 0.0,
+                 z1 = ok ? std::fma(s1, dz, oz) : 0.0;
     // The squared chord between the ends' unit directions, c^2 = 2 - 2 cos(angle), from one
     // square root and one division (the divider is the loop's bottleneck). Its cancellation
     // at short paths (relative error ~1e-16 / angle^2) matters only where the count of lookups
     // changes, at an angle of one skip radius (~1e-3 rad): an error of ~1e-10.
     const double rr0 = x0 * x0 + y0 * y0 + z0 * z0, rr1 = x1 * x1 + y1 * y1 + z1 * z1;
     const double cos_angle = (x0 * x1 + y0 * y1 + z0 * z1) / std::sqrt(rr0 * rr1);
-    const double c2 = std::max(2 - 2 * cos_angle, 0.0);
-    const double arc_bound = std::sqrt(c2 / std::max(1 - 0.25 * c2, 1e-12));
-    w.segments[c] = 1 + static_cast<int>(std::min(arc_bound * inv_radius, 1e6));
-    w.ex[c] = x0, w.ey[c] = y0, w.ez[c] = z0, w.ex[nc + c] = x1, w.ey[nc + c] = y1, w.ez[nc + c] = z1;
+    const double c2 = max_v(2 - 2 * cos_angle, 0.0);
+    const double arc_bound = std::sqrt(c2 / max_v(1 - 0.25 * c2, 1e-12));
+    segments[i] = 1 + static_cast<int>(min_v(arc_bound * inv_radius, 1e6));
+    ex[i] = x0, ey[i] = y0, ez[i] = z0, ex[n + i] = x1, ey[n + i] = y1, ez[n + i] = z1;
   }
-  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), nc, w.possible.data());
+  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), n, w.possible.data());
   w.owner.clear();
   w.ix.clear(), w.iy.clear(), w.iz.clear();
-  for (std::size_t c = 0; c < nc; ++c) {
-    const int m = w.segments[c];
-    if (w.possible[c] || m == 1) continue;
-    w.owner.push_back(static_cast<std::uint32_t>(c));  // the far end
-    w.ix.push_back(w.ex[nc + c]), w.iy.push_back(w.ey[nc + c]), w.iz.push_back(w.ez[nc + c]);
-    const std::uint32_t i = w.idx[c];
+  for (std::size_t i = 0; i < n; ++i) {
+    const int m = w.segments[i];
+    if (!w.in_shell[i] || w.possible[i] || m == 1) continue;
+    w.owner.push_back(static_cast<std::uint32_t>(i));  // the far end
+    w.ix.push_back(w.ex[n + i]), w.iy.push_back(w.ey[n + i]), w.iz.push_back(w.ez[n + i]);
     const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
     for (int j = 1; j < m; ++j) {
       const double t = path.t_at(path.length() * j / m);
-      w.owner.push_back(static_cast<std::uint32_t>(c));
+      w.owner.push_back(static_cast<std::uint32_t>(i));
       w.ix.push_back(std::fma(t, d[i].x, o.x)), w.iy.push_back(std::fma(t, d[i].y, o.y));
       w.iz.push_back(std::fma(t, d[i].z, o.z));
     }
@@ -204,9 +213,10 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   w.interior.resize(w.owner.size());
   shell.may_have_cloud(w.ix.data(), w.iy.data(), w.iz.data(), w.owner.size(), w.interior.data());
   for (std::size_t k = 0; k < w.owner.size(); ++k) w.possible[w.owner[k]] |= w.interior[k];
-  std::size_t nr = 0;  // rays marched, compacted into idx (in place: nr <= c)
-  for (std::size_t c = 0; c < nc; ++c)
-    if (w.possible[c]) w.idx[nr++] = w.idx[c];
+  std::size_t nr = 0;  // rays marched, compacted into idx
+  w.idx.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (w.in_shell[i] && w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
   if (nr == 0) return;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
