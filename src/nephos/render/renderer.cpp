@@ -187,10 +187,11 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     // square root and one division (the divider is the loop's bottleneck). Its cancellation
     // at short paths (relative error ~1e-16 / angle^2) matters only where the count of lookups
     // changes, at an angle of one skip radius (~1e-3 rad): an error of ~1e-10.
-    const double rr0 = x0 * x0 + y0 * y0 + z0 * z0, rr1 = x1 * x1 + y1 * y1 + z1 * z1;
-    const double cos_angle = (x0 * x1 + y0 * y1 + z0 * z1) / std::sqrt(rr0 * rr1);
-    const double c2 = max_v(2 - 2 * cos_angle, 0.0);
-    const double arc_bound = std::sqrt(c2 / max_v(1 - 0.25 * c2, 1e-12));
+    // Now that the loop vectorises, its sums are explicit fma like the march's (see above).
+    const double rr0 = std::fma(z0, z0, std::fma(y0, y0, x0 * x0)), rr1 = std::fma(z1, z1, std::fma(y1, y1, x1 * x1));
+    const double cos_angle = std::fma(z0, z1, std::fma(y0, y1, x0 * x1)) / std::sqrt(rr0 * rr1);
+    const double c2 = max_v(std::fma(-2.0, cos_angle, 2.0), 0.0);
+    const double arc_bound = std::sqrt(c2 / max_v(std::fma(-0.25, c2, 1.0), 1e-12));
     segments[i] = 1 + static_cast<int>(min_v(arc_bound * inv_radius, 1e6));
     ex[i] = x0, ey[i] = y0, ez[i] = z0, ex[n + i] = x1, ey[n + i] = y1, ez[n + i] = z1;
   }
