@@ -99,6 +99,10 @@ class SpriteRenderer {
   /// Whether sprites cover only the octagon of their texture's non-transparent texels (default)
   /// or the whole quad (for comparison: the frames are the same up to float rounding).
   void set_trim_sprites(bool trim);
+  /// Whether the frame's first flat layer, which lies over nothing but the cleared sky, is
+  /// composited with the sky in its shader and written without blending (default) or blended
+  /// like the others (for comparison: the frames agree to the rounding of the 8-bit blend).
+  void set_first_layer_over_sky(bool over_sky);
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// Copies the last frame into the current context's default framebuffer (window mode),
@@ -135,8 +139,11 @@ class SpriteRenderer {
   /// composited in one pass.
   enum class Shading { plain, bent_normal, sheet, layer_pair };
   /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
-  void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
-              Shading shading);
+  /// Draws instances [first, first + count) of the instance buffer with `shading`, blended
+  /// over what `target` holds; with `over_sky`, a flat layer drawn over nothing but the cleared
+  /// sky: composited with the sky colour in its shader and written without blending.
+  void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear, Shading shading,
+              bool over_sky = false);
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
   void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
                        const Camera& camera);

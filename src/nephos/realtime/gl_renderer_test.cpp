@@ -269,6 +269,35 @@ TEST(SpriteRendererGl, LayerPairInOnePassMatchesTwoPasses) {
   }
 }
 
+TEST(SpriteRendererGl, FirstLayerOverTheSkyMatchesBlending) {
+  // The frame's first flat layer is composited with the sky colour in its shader and written
+  // without blending; "over" a uniform sky gives what blending gives, up to rounding: the
+  // shader rounds the composited colour once, llvmpipe's 8-bit fixed-point blend rounds the
+  // fragment and then the blend (within one level each), so at most two levels apart. Layers
+  // on both sides of the camera (cirrus and an altostratus pair above, fog below), seen from
+  // between them, between the altostratus and the cirrus, and above all.
+  CloudRecipe r;
+  r.layers.push_back({SpriteCloudType::altostratus, 2, 4000, 5000, 8});
+  r.layers.push_back({SpriteCloudType::cirrus, 1, 9000, 10000, 8});
+  r.layers.push_back({SpriteCloudType::low_stratus, 1, 300, 400, 8});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(160, 96, 7);
+  for (const double z : {1000.0, 6000.0, 12000.0}) {
+    const CloudField field(r, 7, {0, 0, z});
+    ASSERT_EQ(field.layers().size(), 4u);
+    const Camera cam{{0, 0, z}, {1, 0, z < 6000 ? 0.05 : -0.05}, {0, 0, 1}, 60};
+    std::vector<std::uint8_t> frames[2];
+    for (const bool over_sky : {true, false}) {
+      renderer.set_first_layer_over_sky(over_sky);
+      renderer.draw(field, cam, sun, true, false);
+      frames[over_sky] = renderer.read_pixels();
+    }
+    const FrameDiff d = frame_diff(frames[0], frames[1], 1);
+    EXPECT_LE(d.max, 2) << "camera at " << z << " m";
+    EXPECT_GT(d.from_sky, 20) << "the layers are drawn (camera at " << z << " m)";
+  }
+}
+
 TEST(SpriteRendererGl, FlatLayerFadesToItsMeanWhereItsTexelsAreSmallerThanAPixel) {
   // A sheet at dh = 3000 m above the camera, seen level: a pixel row at elevation e meets it at
   // D = dh / tan(e), where one pixel (theta = 2 tan 30 / 180 rad) spans D^2 theta / dh metres
