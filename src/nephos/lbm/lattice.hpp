@@ -29,13 +29,17 @@ struct Grid3 {
   std::size_t cells() const { return static_cast<std::size_t>(nx) * ny * nz; }
   std::size_t index(int x, int y, int z) const { return (static_cast<std::size_t>(z) * ny + y) * nx + x; }
   /// Elements from one direction's populations to the next in a direction-major array: the
-  /// cell count rounded up to 2048, plus 32. Without the padding every direction of a
-  /// power-of-two lattice starts at the same offset modulo 4 KiB, so the 19 pulled rows and
-  /// the 19 written rows of a step all fall into the same L1 and L2 cache sets and evict each
-  /// other (measured on an AMD Zen 3: a 19-direction copy ran at 7 GB/s instead of 47). With
-  /// it, direction i starts i x 128 B (FP32) or i x 64 B (FP16) past such a boundary: distinct
-  /// cache lines for all 19 directions, in sets 64 KiB apart at most.
-  std::size_t direction_stride() const { return (cells() + 2047) / 2048 * 2048 + 32; }
+  /// cell count rounded up to 32768 (64 KiB of FP16, 128 KiB of FP32: a whole number of L2 set
+  /// spans, 64 KiB on a 512 KiB 8-way L2), plus 864. Without padding every direction of a
+  /// power-of-two lattice starts at the same offset modulo 4 KiB, so the 19 pulled and the 19
+  /// written rows of a step fall into the same L1 and L2 sets and evict each other (measured
+  /// on an AMD Zen 3: a 19-direction copy ran at 7 GB/s instead of 47). With 864, direction i
+  /// starts i x 54 cache lines (FP32) or i x 27 (FP16) past a 64 KiB boundary: the directions'
+  /// rows spread evenly over the L2 sets (and fall into distinct L1 sets), so the rows the water
+  /// model's pass 1 pulls stay in L2 until its pass 2 pulls them again (FP16: 84 % L2 hits in a
+  /// cache simulation of the wavefront, against 0.5 % with 32 elements of padding, which
+  /// spread the 19 directions over 38 sets only; docs/lbm.md).
+  std::size_t direction_stride() const { return (cells() + 32767) / 32768 * 32768 + 864; }
   /// Elements of a direction-major array of q directions (padding included, left zero).
   std::size_t population_size(int q) const { return static_cast<std::size_t>(q) * direction_stride(); }
   bool operator==(const Grid3&) const = default;
