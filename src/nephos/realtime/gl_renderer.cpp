@@ -928,7 +928,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   submit(target, 0, 0, m.texture, true, Shading::plain);  // the sky
   // The first flat layer lies over nothing but the uniform sky: it is composited with the sky
   // in its shader and written without blending, which spares llvmpipe reading and blending the
-  // frame under it (0.3-0.6 ms of a 1280x720 frame under d400's deck; docs/PERFORMANCE.md).
+  // frame under it (0.1-0.8 ms of a 1280x720 frame under d400's deck; docs/PERFORMANCE.md).
   std::size_t first = rings;
   bool over_sky = m.first_layer_over_sky;
   for (const auto& [shading, count] : layer_runs) {

@@ -138,10 +138,10 @@ class SpriteRenderer {
   /// diffuse term, a flat layer (faded to its mean far out), or two flat layers of one type
   /// composited in one pass.
   enum class Shading { plain, bent_normal, sheet, layer_pair };
-  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call.
-  /// Draws instances [first, first + count) of the instance buffer with `shading`, blended
-  /// over what `target` holds; with `over_sky`, a flat layer drawn over nothing but the cleared
-  /// sky: composited with the sky colour in its shader and written without blending.
+  /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call
+  /// with `shading`, blended over what `target` holds; with `over_sky`, flat layers drawn over
+  /// nothing but the cleared sky: composited with the sky colour in their shader and written
+  /// without blending.
   void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear, Shading shading,
               bool over_sky = false);
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
