@@ -38,7 +38,7 @@ struct Grid3 {
   /// rows spread evenly over the L2 sets (and fall into distinct L1 sets), so the rows the water
   /// model's pass 1 pulls stay in L2 until its pass 2 pulls them again (FP16: 84 % L2 hits in a
   /// cache simulation of the wavefront, against 0.5 % with 32 elements of padding, which
-  /// spread the 19 directions over 38 sets only; docs/lbm.md).
+  /// started the 19 directions within 38 (FP32) or 19 (FP16) consecutive sets; docs/lbm.md).
   std::size_t direction_stride() const { return (cells() + 32767) / 32768 * 32768 + 864; }
   /// Elements of a direction-major array of q directions (padding included, left zero).
   std::size_t population_size(int q) const { return static_cast<std::size_t>(q) * direction_stride(); }
