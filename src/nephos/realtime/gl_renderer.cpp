@@ -933,8 +933,13 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   bool over_sky = m.first_layer_over_sky;
   for (const auto& [shading, count] : layer_runs) {
     std::size_t n = count;
-    if (over_sky) submit(target, first, 1, m.texture, false, shading, true), ++first, --n, over_sky = false;
-    submit(target, first, n, m.texture, false, shading), first += n;
+    if (over_sky) {  // its first instance alone
+      submit(target, first, 1, m.texture, false, shading, true);
+      ++first, --n;
+      over_sky = false;
+    }
+    submit(target, first, n, m.texture, false, shading);
+    first += n;
   }
   submit(target, 0, ring_quads[0], m.imp_tex[m.front], false, Shading::plain);
   if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, Shading::plain);

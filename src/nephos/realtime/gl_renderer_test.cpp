@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 #include "nephos/core/error.hpp"
@@ -27,6 +28,20 @@ FrameDiff frame_diff(const std::vector<std::uint8_t>& a, const std::vector<std::
     f.from_sky = std::max(f.from_sky, std::abs(int{b[i]} - int{sky[i % 4]}));
   }
   return f;
+}
+
+// The frames of one view drawn with one of the renderer's comparison switches on ([1], drawn
+// first) and off ([0]); the switch is left off.
+std::array<std::vector<std::uint8_t>, 2> frames_both_ways(SpriteRenderer& renderer, void (SpriteRenderer::*set)(bool),
+                                                          const CloudField& field, const Camera& cam,
+                                                          const SunLight& sun, bool impostors) {
+  std::array<std::vector<std::uint8_t>, 2> frames;
+  for (const bool on : {true, false}) {
+    (renderer.*set)(on);
+    renderer.draw(field, cam, sun, true, impostors);
+    frames[on] = renderer.read_pixels();
+  }
+  return frames;
 }
 
 }  // namespace
@@ -256,12 +271,7 @@ TEST(SpriteRendererGl, LayerPairInOnePassMatchesTwoPasses) {
     const CloudField field(r, 7, {0, 0, z});
     ASSERT_EQ(field.layers().size(), 2u);
     const Camera cam{{0, 0, z}, {1, 0, z < 4400 ? 0.05 : -0.05}, {0, 0, 1}, 60};
-    std::vector<std::uint8_t> frames[2];
-    for (const bool merge : {true, false}) {
-      renderer.set_merge_flat_layers(merge);
-      renderer.draw(field, cam, sun, true, false);
-      frames[merge] = renderer.read_pixels();
-    }
+    const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_merge_flat_layers, field, cam, sun, false);
     const FrameDiff d = frame_diff(frames[0], frames[1], 1);  // over: channels more than one level apart
     EXPECT_LE(d.max, 3) << "camera at " << z << " m";
     EXPECT_LT(d.over, frames[0].size() / 20) << "camera at " << z << " m";
@@ -286,12 +296,7 @@ TEST(SpriteRendererGl, FirstLayerOverTheSkyMatchesBlending) {
     const CloudField field(r, 7, {0, 0, z});
     ASSERT_EQ(field.layers().size(), 4u);
     const Camera cam{{0, 0, z}, {1, 0, z < 6000 ? 0.05 : -0.05}, {0, 0, 1}, 60};
-    std::vector<std::uint8_t> frames[2];
-    for (const bool over_sky : {true, false}) {
-      renderer.set_first_layer_over_sky(over_sky);
-      renderer.draw(field, cam, sun, true, false);
-      frames[over_sky] = renderer.read_pixels();
-    }
+    const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_first_layer_over_sky, field, cam, sun, false);
     const FrameDiff d = frame_diff(frames[0], frames[1], 1);
     EXPECT_LE(d.max, 2) << "camera at " << z << " m";
     EXPECT_GT(d.from_sky, 20) << "the layers are drawn (camera at " << z << " m)";
@@ -450,12 +455,7 @@ TEST(SpriteRendererGl, TrimmedSpritesMatchWholeQuads) {
   for (const double z : {2400.0, 4500.0})
     for (const bool impostors : {false, true}) {
       const Camera cam{{0, 0, z}, {1, 0.2, z > 3000 ? -0.3 : -0.05}, {0, 0, 1}, 60};
-      std::vector<std::uint8_t> frames[2];
-      for (const bool trim : {true, false}) {
-        renderer.set_trim_sprites(trim);
-        renderer.draw(field, cam, sun, true, impostors);
-        frames[trim] = renderer.read_pixels();
-      }
+      const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_trim_sprites, field, cam, sun, impostors);
       const FrameDiff d = frame_diff(frames[0], frames[1], 0);  // over: channels that differ at all
       EXPECT_LE(d.max, 1) << "camera at " << z << " m, impostors " << impostors;
       EXPECT_LT(d.over, frames[0].size() / 200) << "camera at " << z << " m, impostors " << impostors;
