@@ -20,7 +20,7 @@ CY = [0, 0, 0, 1, -1, 0, 0, 1, -1, 0, 0, 1, -1, 1, -1, -1, 1, 0, 0]
 CZ = [0, 0, 0, 0, 0, 1, -1, 0, 0, 1, -1, 1, -1, -1, 1, 0, 0, -1, 1]
 
 
-def pass2_hit_rate(value_bytes, pad, block, n=128, planes=12, sets=1024, ways=8, round_to=None, line=64):
+def pass2_hit_rate(value_bytes, pad, block, n=128, planes=12, sets=1024, ways=8, round_to=32768, line=64):
     """L2 hit rate of pass 2's pulls (Zen 3 L2: 512 KiB, 8-way, 1024 sets of 64 B lines)."""
     cells = n ** 3
     stride = (cells + round_to - 1) // round_to * round_to + pad
