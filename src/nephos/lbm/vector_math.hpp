@@ -13,7 +13,8 @@ namespace nephos::lbm {
 /// Range reduction x = k ln 2 + r, |r| <= ln 2 / 2 (ln 2 split in two for an exact k ln 2),
 /// then e^r by its Taylor polynomial of degree 7 (truncation < 5.3e-9 relative) and 2^k by
 /// building the exponent bits.
-inline float exp_nonpositive(float x) {
+// Always inlined: called in `omp simd` loops, where an out-of-line call would run lane by lane.
+[[gnu::always_inline]] inline float exp_nonpositive(float x) {
   x = x < -87.0f ? -87.0f : x;
   const float k = std::floor(std::fma(x, 1.44269504f, 0.5f));  // round(x / ln 2)
   float r = std::fma(k, -0.693145751953125f, x);               // ln 2, high bits (exact product)

@@ -158,6 +158,19 @@ template <class T>
 constexpr int line = 128 / static_cast<int>(sizeof(T));
 constexpr int max_line = line<std::uint16_t>;
 
+// Where a row's pulled populations go in the layout pass 1 hands to pass 2: line by line
+// (L cells each), within a line component by component, direction by direction, so that the
+// collision reads every population of a line at a fixed offset from one pointer.
+template <int L>
+constexpr std::size_t pulled_index(int x0, int c, int i) {
+  return static_cast<std::size_t>(x0 / L) * (2 * d3q19::q * L) + static_cast<std::size_t>((c * d3q19::q + i) * L);
+}
+// Floats of one row in that layout.
+template <int L>
+std::size_t pulled_row_size(int nx) {
+  return pulled_index<L>((nx + L - 1) / L * L, 0, 0);
+}
+
 // The `count` (<= line) pulled populations of direction i at cells x0 ... of a row as floats:
 // a pointer into FP32 storage (or into `buf`, where the row wraps around x), or the FP16
 // values converted into `buf`.
@@ -180,10 +193,11 @@ inline void store_line(std::uint16_t* dst, const float* src, int n) {
 }  // namespace
 
 template <class T>
-void WaterModel::density_row(int y, int z, const DensityRows& rows) {
+void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulled_out) {
   // Pass 1 of row (y, z): the densities after streaming, rho_c = rho_ref + sum_i f_i(x - c_i),
-  // and Psi_1. Reads the pulled populations without copying them: pass 2 pulls them again,
-  // from cache (see fused_step()).
+  // and Psi_1. With pulled_out, also the pulled populations themselves, as floats in the
+  // line-major layout pass 2 reads (pulled_index()): the fused step's pass 2 then reads them
+  // from L2 at fixed offsets instead of pulling them again (see fused_step_impl()).
   const int nx = g_.nx;
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
   const float rho10 = static_cast<float>(p_.rho10);
@@ -206,12 +220,27 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows) {
         src[i] = pulled(rs, i, x0, count, buf + i * line<T>);
       }
       float* rho = (c == 0 ? rows.rho1 : rows.rho2) + base + x0;
+      if (pulled_out) {
+        float* out = pulled_out + pulled_index<line<T>>(x0, c, 0);
 #pragma omp simd
-      for (int l = 0; l < count; ++l) {
-        float sum = 0;
+        for (int l = 0; l < count; ++l) {
+          float sum = 0;
 #pragma GCC unroll 19
-        for (int i = 0; i < d3q19::q; ++i) sum += src[i][l];
-        rho[l] = sum + ref;
+          for (int i = 0; i < d3q19::q; ++i) {
+            const float v = src[i][l];
+            out[i * line<T> + l] = v;
+            sum += v;
+          }
+          rho[l] = sum + ref;
+        }
+      } else {
+#pragma omp simd
+        for (int l = 0; l < count; ++l) {
+          float sum = 0;
+#pragma GCC unroll 19
+          for (int i = 0; i < d3q19::q; ++i) sum += src[i][l];
+          rho[l] = sum + ref;
+        }
       }
     }
   }
@@ -225,15 +254,15 @@ struct WaterModel::RowScratch {
   explicit RowScratch(int nx) {
     for (auto& p : post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx), 0.0f);
   }
-  alignas(64) float edge[2][d3q19::q * max_line];  // neighbours' Psi_1 and rho_2 of lines that wrap around x
-  alignas(64) float pop[2][d3q19::q * max_line];   // pulled populations where they are not FP32 in place
-  std::vector<float> post[2];                      // post-collision populations of a row (q x nx)
+  alignas(64) float edge[2][d3q19::q * max_line];     // neighbours' Psi_1 and rho_2 of lines that wrap around x
+  alignas(64) float pulled[2 * d3q19::q * max_line];  // one line's pulled populations (pulled_index layout)
+  std::vector<float> post[2];                         // post-collision populations of a row (q x nx)
 };
 
 namespace {
 // What the collision of one line of cells needs, per lane l < count.
 struct WaterLine {
-  const float* pop[2][d3q19::q];   // streamed populations of each component
+  const float* pop;                // streamed populations: component c, direction i at pop[(c q + i) L + l]
   const float* psi_nb[d3q19::q];   // Psi_1 at x + c_i
   const float* rho2_nb[d3q19::q];  // Psi_2 = rho_2 at x + c_i
   const float *rho1, *rho2, *psi1;
@@ -248,6 +277,7 @@ struct WaterConstants {
 // so FP32 rounds the deviations, not the densities. Opposite directions go in pairs, which
 // halves the gradient's and the equilibria's arithmetic: on an AVX2 machine (8 lanes, where
 // the collision rather than memory bounds a thread) a step took 9 % less time.
+template <int L>  // lanes per population in `in.pop` (a line)
 inline void collide_line(const WaterLine& in, int count, const WaterConstants& k, float* const post[2],
                          std::size_t stride) {
   using namespace d3q19;
@@ -277,10 +307,11 @@ inline void collide_line(const WaterLine& in, int count, const WaterConstants& k
     float jx[2], jy[2], jz[2], drho[2];
 #pragma GCC unroll 2
     for (int c = 0; c < 2; ++c) {
-      float sx = 0, sy = 0, sz = 0, s = in.pop[c][0][l];
+      const float* pc = in.pop + c * q * L;  // fixed offsets: no pointer per direction to load
+      float sx = 0, sy = 0, sz = 0, s = pc[l];
 #pragma GCC unroll 18
       for (int i = 1; i < q; ++i) {
-        const float v = in.pop[c][i][l];
+        const float v = pc[i * L + l];
         s += v;
         add_c(i, v, sx, sy, sz);
       }
@@ -324,11 +355,11 @@ inline void collide_line(const WaterLine& in, int count, const WaterConstants& k
         const float anti = (axis ? k1_a : k1_d) * cu;
         const float feq_p = sym + anti, feq_m = sym - anti;
         feq_sum += feq_p + feq_m;
-        const float fp = in.pop[c][i][l], fm = in.pop[c][i + 1][l];
+        const float fp = in.pop[(c * q + i) * L + l], fm = in.pop[(c * q + i + 1) * L + l];
         post[c][static_cast<std::size_t>(i) * stride + static_cast<std::size_t>(l)] = fp - omega * (fp - feq_p);
         post[c][static_cast<std::size_t>(i + 1) * stride + static_cast<std::size_t>(l)] = fm - omega * (fm - feq_m);
       }
-      const float f0 = in.pop[c][0][l];
+      const float f0 = in.pop[c * q * L + l];
       post[c][l] = f0 - omega * (f0 - (drho[c] - feq_sum));
     }
   }
@@ -336,9 +367,10 @@ inline void collide_line(const WaterLine& in, int count, const WaterConstants& k
 }  // namespace
 
 template <class T>
-void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows) {
-  // Pass 2 of row (y, z), one line of cells at a time (collide_line): pull the populations
-  // of the current state again, collide, and write the next state with streaming stores.
+void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows, const float* pulled_row) {
+  // Pass 2 of row (y, z), one line of cells at a time (collide_line): the populations pass 1
+  // pulled (pulled_row), or, without them, pulled again from the current state; collide, and
+  // write the next state with streaming stores.
   const std::size_t stride = g_.direction_stride();
   const int nx = g_.nx;
   const WaterConstants k{{static_cast<float>(p_.xi_vapour), static_cast<float>(p_.xi_temperature)},
@@ -352,8 +384,9 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
                          static_cast<float>(p_.buoyancy_reference)};
   const std::size_t base = g_.index(0, y, z), dbase = rows.row(y, z);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-  const RowSourcesOf<T> rs[2] = {row_sources(g_, f_[0].data<T>(), y, z, zb),
-                                 row_sources(g_, f_[1].data<T>(), y, z, zb)};
+  RowSourcesOf<T> rs[2];
+  if (!pulled_row)
+    for (int c = 0; c < 2; ++c) rs[c] = row_sources(g_, f_[c].data<T>(), y, z, zb);
   // Neighbour rows of the gradients (walls: the row beyond is the row itself).
   const float* psi_row[d3q19::q];
   const float* rho2_row[d3q19::q];
@@ -368,8 +401,17 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
   WaterLine in{};
   for (int x0 = 0; x0 < nx; x0 += line<T>) {
     const int count = std::min(line<T>, nx - x0);
-    for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i) in.pop[c][i] = pulled(rs[c], i, x0, count, scratch.pop[c] + i * line<T>);
+    if (pulled_row) {
+      in.pop = pulled_row + pulled_index<line<T>>(x0, 0, 0);
+    } else {
+      for (int c = 0; c < 2; ++c)
+        for (int i = 0; i < d3q19::q; ++i) {
+          float* dst = scratch.pulled + pulled_index<line<T>>(0, c, i);
+          const float* src = pulled(rs[c], i, x0, count, dst);
+          if (src != dst) std::copy_n(src, count, dst);
+        }
+      in.pop = scratch.pulled;
+    }
     for (int i = 1; i < d3q19::q; ++i) {
       const int cx = d3q19::cx[static_cast<std::size_t>(i)];
       in.psi_nb[i] = periodic_span(psi_row[i], nx, x0, cx, count, scratch.edge[0] + i * line<T>);
@@ -380,7 +422,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     in.psi1 = rows.psi1 + dbase + x0;
     // The whole line at once: the omp simd loop runs over it in vector-register steps.
     float* const post[2] = {scratch.post[0].data() + x0, scratch.post[1].data() + x0};
-    collide_line(in, count, k, post, static_cast<std::size_t>(nx));
+    collide_line<line<T>>(in, count, k, post, static_cast<std::size_t>(nx));
   }
   // The row's post-collision populations out, one direction row at a time: 19 streams of
   // whole rows instead of 38 interleaved lines.
@@ -409,7 +451,7 @@ void WaterModel::step_stage_impl(Stage stage) {
   if (stage == Stage::stream) {
 #pragma omp parallel for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
-      for (int y = 0; y < g_.ny; ++y) density_row<T>(y, z, lattice_rows());
+      for (int y = 0; y < g_.ny; ++y) density_row<T>(y, z, lattice_rows(), nullptr);
     return;
   }
   const int y0 = owned_begin(), y1 = owned_end();
@@ -418,7 +460,7 @@ void WaterModel::step_stage_impl(Stage stage) {
     RowScratch scratch(g_.nx);
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
-      for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows());
+      for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows(), nullptr);
     stream_fence();
   }
   for (int c = 0; c < 2; ++c) f_[c].swap(next_[c]);
@@ -428,16 +470,18 @@ void WaterModel::step_stage_impl(Stage stage) {
 template <class T>
 void WaterModel::fused_step_impl() {
   // The two passes as a wavefront over z, in blocks of rows along y that the threads share
-  // out without waiting for each other: per block and plane z, pass 1 (densities) of plane
-  // z + 1 for the block's rows and one halo row on each side, then pass 2 (collision) of plane
-  // z, which needs Psi of planes z - 1 .. z + 1 and rows y - 1 .. y + 1. The densities live in
-  // the block's own ring of three planes, so no two threads write the same place; halo rows
-  // are computed by both blocks beside them, from the same inputs, to the same bits. Both
-  // passes pull from the current state and pass 2 writes the next one, so every row sees
-  // exactly the inputs of the two-pass order (bit-identical to step_stage(), whatever the
-  // thread count). Pass 2 pulls the populations pass 1 read one plane before: with 16-row
-  // blocks that is ~0.3 MiB ago, still in the core's L2, so a step reads the state from memory
-  // once and writes it once (608 B per cell for both components). Walls in z only. With more
+  // out without waiting for each other: per block and plane z, row by row, pass 1 (densities)
+  // of row y + 1 of plane z + 1, then pass 2 (collision) of row y of plane z, which needs Psi
+  // of planes z - 1 .. z + 1 and rows y - 1 .. y + 1 (pass 1 also covers one halo row on each
+  // side of the block). The densities live in the block's own ring of three planes, so no two
+  // threads write the same place; halo rows are computed by both blocks beside them, from the
+  // same inputs, to the same bits. Pass 1 pulls from the current state and keeps what it pulled
+  // for the block's own rows in a ring of block + 2 rows (~0.35 MiB at 16 x 128 cells in FP32,
+  // in the core's L2), where pass 2 of the next plane finds it: pass 2 reads it at fixed offsets
+  // instead of pulling 38 rows again through pointers and wrap-around copies. Pass 2 writes the
+  // next state, so every row sees exactly the inputs of the two-pass order (bit-identical to
+  // step_stage(), whatever the thread count). A step reads the state from memory once and
+  // writes it once (608 B per cell for both components in FP32). Walls in z only. With more
   // threads than 16-row blocks (128 rows on more than 8 cores) the blocks shrink, to no fewer
   // than 4 rows, so that every thread has one: each block recomputes two halo rows of
   // densities, and the results do not depend on the blocking.
@@ -445,21 +489,36 @@ void WaterModel::fused_step_impl() {
   const int block = std::clamp(ny / std::max(thread_count(), 1), 4, 16);
   const int blocks = (ny + block - 1) / block;
   const std::size_t ring = static_cast<std::size_t>(3) * (block + 2) * static_cast<std::size_t>(nx);
+  const std::size_t row_floats = pulled_row_size<line<T>>(nx);
 #pragma omp parallel
   {
     RowScratch scratch(g_.nx);
-    std::vector<float> dens(3 * ring);
+    // Per-thread buffers kept from step to step (the threads of OpenMP's pool persist): no
+    // allocation, page faults or unmapping per step.
+    thread_local std::vector<float> dens, pulled_ring;
+    dens.resize(3 * ring);
+    pulled_ring.resize(static_cast<std::size_t>(block + 2) * row_floats);
 #pragma omp for schedule(static)
     for (int b = 0; b < blocks; ++b) {
-      const int yb = b * block, ye = std::min(ny, yb + block);
+      const int yb = b * block, ye = std::min(ny, yb + block), rows_in_block = ye - yb;
       const DensityRows rows{dens.data(), dens.data() + ring, dens.data() + 2 * ring, nx, ny, 1 - yb, block + 2, 3};
-      auto pass1 = [&](int z) {
-        for (int y = yb - 1; y <= ye; ++y) density_row<T>(y, z, rows);
+      // Row (y, z)'s pulled populations: the rows in wavefront order, (z, y) -> z n + y - yb,
+      // modulo n + 2 slots. Pass 1 writes row (y + 1, z + 1) while rows (y, z) .. (y, z + 1),
+      // n + 1 places before it in that order, still wait for pass 2: n + 2 distinct slots.
+      auto slot = [&](int y, int z) {
+        const auto at =
+            static_cast<std::size_t>(z) * static_cast<std::size_t>(rows_in_block) + static_cast<std::size_t>(y - yb);
+        return pulled_ring.data() + at % static_cast<std::size_t>(rows_in_block + 2) * row_floats;
       };
-      pass1(0);
+      auto pass1 = [&](int y, int z) { density_row<T>(y, z, rows, y >= yb && y < ye ? slot(y, z) : nullptr); };
+      for (int y = yb - 1; y <= ye; ++y) pass1(y, 0);
       for (int z = 0; z < nz; ++z) {
-        if (z + 1 < nz) pass1(z + 1);
-        for (int y = yb; y < ye; ++y) collide_row<T>(y, z, scratch, rows);
+        const bool ahead = z + 1 < nz;
+        if (ahead) pass1(yb - 1, z + 1), pass1(yb, z + 1);
+        for (int y = yb; y < ye; ++y) {
+          if (ahead) pass1(y + 1, z + 1);
+          collide_row<T>(y, z, scratch, rows, slot(y, z));
+        }
         if (z == 0 || z == nz - 1)  // finish_step() resets the boundary layers from the vapour density
           for (int y = yb; y < ye; ++y) std::copy_n(rows.rho1 + rows.row(y, z), nx, rho_[0].data() + g_.index(0, y, z));
       }

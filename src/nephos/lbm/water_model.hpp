@@ -139,9 +139,9 @@ class WaterModel {
   };
   DensityRows lattice_rows();
   template <class T>  // T: the population storage type, float or FP16 bits (std::uint16_t)
-  void density_row(int y, int z, const DensityRows& rows);
+  void density_row(int y, int z, const DensityRows& rows, float* pulled_out);
   template <class T>
-  void collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows);
+  void collide_row(int y, int z, RowScratch& scratch, const DensityRows& rows, const float* pulled_row);
   template <class T>
   void step_stage_impl(Stage stage);
   template <class T>
