@@ -70,6 +70,27 @@ TEST(Lattice, DirectionsStartOnDistinctCacheLines) {
   }
 }
 
+TEST(Lattice, PeriodicSpanIsTheWrappedRow) {
+  // periodic_span against its definition, row[(x0 + offset + l) mod nx], for every span the
+  // kernels ask for (lines of count cells at x0 = 0, count, 2 count, ..., offset -1, 0, 1): the
+  // spans inside the row, both wrap-around cases, and the vector path (count a multiple of 8,
+  // nx >= 8) as well as the piecewise one (nx = 4, 12; count 4, 12).
+  for (int nx : {4, 8, 12, 16, 24, 32, 128})
+    for (int count : {4, 8, 12, 16, 32, 64}) {
+      if (count > nx || nx % count != 0) continue;
+      std::vector<float> row(static_cast<std::size_t>(nx));
+      for (int x = 0; x < nx; ++x) row[static_cast<std::size_t>(x)] = 100.0f + static_cast<float>(x);
+      std::vector<float> edge(static_cast<std::size_t>(count), -1.0f);
+      for (int x0 = 0; x0 < nx; x0 += count)
+        for (int offset : {-1, 0, 1}) {
+          const float* span = periodic_span(row.data(), nx, x0, offset, count, edge.data());
+          for (int l = 0; l < count; ++l)
+            EXPECT_EQ(span[l], 100.0f + static_cast<float>(((x0 + offset + l) % nx + nx) % nx))
+                << "nx " << nx << ", count " << count << ", x0 " << x0 << ", offset " << offset << ", lane " << l;
+        }
+    }
+}
+
 TEST(Bgk, PoiseuilleChannel) {
   // Body force F along x between no-slip walls at z = 0 and z = H (halfway bounce-back):
   // u(z) = F z (H - z) / (2 rho nu), nu = (xi - 1/2)/3. Issue target: L2 error < 5 %.

@@ -181,7 +181,17 @@ inline const float* pulled(const RowSourcesOf<float>& rs, int i, int x0, int cou
 inline const float* pulled(const RowSourcesOf<std::uint16_t>& rs, int i, int x0, int count, float* buf) {
   const auto iu = static_cast<std::size_t>(i);
   const std::uint16_t* row = rs.row[iu];
-  periodic_pieces(rs.nx, x0 - rs.shift[iu], count,
+  const int first = x0 - rs.shift[iu];
+#if defined(__F16C__) && defined(__AVX2__)
+  if (!(first >= 0 && first + count <= rs.nx)) {
+    const __m256 scale = _mm256_set1_ps(1.0f / fp16_scale);
+    auto load8 = [row, scale](int k) {
+      return _mm256_mul_ps(_mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(row + k))), scale);
+    };
+    if (wrap_span_vectors(rs.nx, first, count, buf, load8)) return buf;
+  }
+#endif
+  periodic_pieces(rs.nx, first, count,
                   [&](int src, int dst, int n) { halves_to_floats(row + src, buf + dst, n, 1.0f / fp16_scale); });
   return buf;
 }
