@@ -264,9 +264,9 @@ struct WaterModel::RowScratch {
   explicit RowScratch(int nx) {
     for (auto& p : post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx), 0.0f);
   }
-  alignas(64) float edge[2][d3q19::q * max_line];     // neighbours' Psi_1 and rho_2 of lines that wrap around x
-  alignas(64) float pulled[2 * d3q19::q * max_line];  // one line's pulled populations (pulled_index layout)
-  std::vector<float> post[2];                         // post-collision populations of a row (q x nx)
+  alignas(64) float edge[2][d3q19::q * max_line];        // neighbours' Psi_1 and rho_2 of lines that wrap around x
+  alignas(64) float pulled[2 * d3q19::q * max_line];     // one line's pulled populations (pulled_index layout)
+  std::vector<float, HugePageAllocator<float>> post[2];  // post-collision populations of a row (q x nx), 64-B aligned
 };
 
 namespace {
@@ -505,7 +505,9 @@ void WaterModel::fused_step_impl() {
     RowScratch scratch(g_.nx);
     // Per-thread buffers kept from step to step (the threads of OpenMP's pool persist): no
     // allocation, page faults or unmapping per step.
-    thread_local std::vector<float> dens, pulled_ring;
+    // 64-byte aligned (the allocator's small-size path), so that no vector access to them
+    // straddles two cache lines.
+    thread_local std::vector<float, HugePageAllocator<float>> dens, pulled_ring;
     dens.resize(3 * ring);
     pulled_ring.resize(static_cast<std::size_t>(block + 2) * row_floats);
 #pragma omp for schedule(static)
