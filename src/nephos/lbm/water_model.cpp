@@ -261,12 +261,9 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
 }
 
 struct WaterModel::RowScratch {
-  explicit RowScratch(int nx) {
-    for (auto& p : post) p.assign(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx), 0.0f);
-  }
-  alignas(64) float edge[2][d3q19::q * max_line];        // neighbours' Psi_1 and rho_2 of lines that wrap around x
-  alignas(64) float pulled[2 * d3q19::q * max_line];     // one line's pulled populations (pulled_index layout)
-  std::vector<float, HugePageAllocator<float>> post[2];  // post-collision populations of a row (q x nx), 64-B aligned
+  alignas(64) float edge[2][d3q19::q * max_line];     // neighbours' Psi_1 and rho_2 of lines that wrap around x
+  alignas(64) float pulled[2 * d3q19::q * max_line];  // one line's pulled populations (pulled_index layout)
+  alignas(64) float post[2][d3q19::q * max_line];     // one line's post-collision populations (direction-major)
 };
 
 namespace {
@@ -431,15 +428,17 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     in.rho2 = rows.rho2 + dbase + x0;
     in.psi1 = rows.psi1 + dbase + x0;
     // The whole line at once: the omp simd loop runs over it in vector-register steps.
-    float* const post[2] = {scratch.post[0].data() + x0, scratch.post[1].data() + x0};
-    collide_line<line<T>>(in, count, k, post, static_cast<std::size_t>(nx));
+    float* const post[2] = {scratch.post[0], scratch.post[1]};
+    collide_line<line<T>>(in, count, k, post, static_cast<std::size_t>(line<T>));
+    // The line's post-collision populations out at once, two whole cache lines per direction
+    // (128 bytes): the streaming stores drain while the next line computes. Written a whole
+    // row at a time after the row (19 streams of 512-byte rows), they came in one burst the
+    // core waited on: 5 % slower in ten alternating pairs (docs/PERFORMANCE.md).
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i)
+        store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base + x0,
+                   scratch.post[c] + static_cast<std::size_t>(i) * line<T>, count);
   }
-  // The row's post-collision populations out, one direction row at a time: 19 streams of
-  // whole rows instead of 38 interleaved lines.
-  for (int c = 0; c < 2; ++c)
-    for (int i = 0; i < d3q19::q; ++i)
-      store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base,
-                 scratch.post[c].data() + static_cast<std::size_t>(i) * static_cast<std::size_t>(nx), nx);
 }
 
 void WaterModel::step_stage(Stage stage) {
@@ -467,7 +466,7 @@ void WaterModel::step_stage_impl(Stage stage) {
   const int y0 = owned_begin(), y1 = owned_end();
 #pragma omp parallel
   {
-    RowScratch scratch(g_.nx);
+    RowScratch scratch;
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < g_.nz; ++z)
       for (int y = y0; y < y1; ++y) collide_row<T>(y, z, scratch, lattice_rows(), nullptr);
@@ -502,7 +501,7 @@ void WaterModel::fused_step_impl() {
   const std::size_t row_floats = pulled_row_size<line<T>>(nx);
 #pragma omp parallel
   {
-    RowScratch scratch(g_.nx);
+    RowScratch scratch;
     // Per-thread buffers kept from step to step (the threads of OpenMP's pool persist): no
     // allocation, page faults or unmapping per step.
     // 64-byte aligned (the allocator's small-size path), so that no vector access to them
