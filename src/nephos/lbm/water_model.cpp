@@ -160,10 +160,15 @@ constexpr int max_line = line<std::uint16_t>;
 
 // Where a row's pulled populations go in the layout pass 1 hands to pass 2: line by line
 // (L cells each), within a line component by component, direction by direction, so that the
-// collision reads every population of a line at a fixed offset from one pointer.
+// collision reads every population of a line at a fixed offset from one pointer. After a
+// component's q directions, slot q holds their sum, the density deviation drho (pass 1's sum,
+// in direction order): the collision reads it instead of adding 18 values again, a chain of
+// dependent additions that held up its every vector (13 % of its samples).
+inline constexpr int pulled_slots = d3q19::q + 1;
 template <int L>
 constexpr std::size_t pulled_index(int x0, int c, int i) {
-  return static_cast<std::size_t>(x0 / L) * (2 * d3q19::q * L) + static_cast<std::size_t>((c * d3q19::q + i) * L);
+  return static_cast<std::size_t>(x0 / L) * (2 * pulled_slots * L) +
+         static_cast<std::size_t>((c * pulled_slots + i) * L);
 }
 // Floats of one row in that layout.
 template <int L>
@@ -241,6 +246,7 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
             out[i * line<T> + l] = v;
             sum += v;
           }
+          out[d3q19::q * line<T> + l] = sum;
           rho[l] = sum + ref;
         }
       } else {
@@ -261,15 +267,15 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
 }
 
 struct WaterModel::RowScratch {
-  alignas(64) float edge[2][d3q19::q * max_line];     // neighbours' Psi_1 and rho_2 of lines that wrap around x
-  alignas(64) float pulled[2 * d3q19::q * max_line];  // one line's pulled populations (pulled_index layout)
-  alignas(64) float post[2][d3q19::q * max_line];     // one line's post-collision populations (direction-major)
+  alignas(64) float edge[2][d3q19::q * max_line];         // neighbours' Psi_1 and rho_2 of lines that wrap around x
+  alignas(64) float pulled[2 * pulled_slots * max_line];  // one line's pulled populations (pulled_index layout)
+  alignas(64) float post[2][d3q19::q * max_line];         // one line's post-collision populations (direction-major)
 };
 
 namespace {
 // What the collision of one line of cells needs, per lane l < count.
 struct WaterLine {
-  const float* pop;                // streamed populations: component c, direction i at pop[(c q + i) L + l]
+  const float* pop;                // streamed populations: component c, direction i at pop[(c pulled_slots + i) L + l]
   const float* psi_nb[d3q19::q];   // Psi_1 at x + c_i
   const float* rho2_nb[d3q19::q];  // Psi_2 = rho_2 at x + c_i
   const float *rho1, *rho2, *psi1;
@@ -314,15 +320,11 @@ inline void collide_line(const WaterLine& in, int count, const WaterConstants& k
     float jx[2], jy[2], jz[2], drho[2];
 #pragma GCC unroll 2
     for (int c = 0; c < 2; ++c) {
-      const float* pc = in.pop + c * q * L;  // fixed offsets: no pointer per direction to load
-      float sx = 0, sy = 0, sz = 0, s = pc[l];
+      const float* pc = in.pop + c * pulled_slots * L;  // fixed offsets: no pointer per direction to load
+      float sx = 0, sy = 0, sz = 0;
 #pragma GCC unroll 18
-      for (int i = 1; i < q; ++i) {
-        const float v = pc[i * L + l];
-        s += v;
-        add_c(i, v, sx, sy, sz);
-      }
-      jx[c] = sx, jy[c] = sy, jz[c] = sz, drho[c] = s;
+      for (int i = 1; i < q; ++i) add_c(i, pc[i * L + l], sx, sy, sz);
+      jx[c] = sx, jy[c] = sy, jz[c] = sz, drho[c] = pc[q * L + l];
     }
     const float psi1 = in.psi1[l], rr1 = in.rho1[l], rr2 = in.rho2[l];
     const float g11 = k.g11_scale * (1 + k.rho20 - rr2);
@@ -362,11 +364,11 @@ inline void collide_line(const WaterLine& in, int count, const WaterConstants& k
         const float anti = (axis ? k1_a : k1_d) * cu;
         const float feq_p = sym + anti, feq_m = sym - anti;
         feq_sum += feq_p + feq_m;
-        const float fp = in.pop[(c * q + i) * L + l], fm = in.pop[(c * q + i + 1) * L + l];
+        const float fp = in.pop[(c * pulled_slots + i) * L + l], fm = in.pop[(c * pulled_slots + i + 1) * L + l];
         post[c][static_cast<std::size_t>(i) * stride + static_cast<std::size_t>(l)] = fp - omega * (fp - feq_p);
         post[c][static_cast<std::size_t>(i + 1) * stride + static_cast<std::size_t>(l)] = fm - omega * (fm - feq_m);
       }
-      const float f0 = in.pop[c * q * L + l];
+      const float f0 = in.pop[c * pulled_slots * L + l];
       post[c][l] = f0 - omega * (f0 - (drho[c] - feq_sum));
     }
   }
@@ -411,12 +413,23 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     if (pulled_row) {
       in.pop = pulled_row + pulled_index<line<T>>(x0, 0, 0);
     } else {
-      for (int c = 0; c < 2; ++c)
+      for (int c = 0; c < 2; ++c) {
         for (int i = 0; i < d3q19::q; ++i) {
           float* dst = scratch.pulled + pulled_index<line<T>>(0, c, i);
           const float* src = pulled(rs[c], i, x0, count, dst);
           if (src != dst) std::copy_n(src, count, dst);
         }
+        // drho, summed as pass 1 sums it (the same order, the same bits).
+        const float* pc = scratch.pulled + pulled_index<line<T>>(0, c, 0);
+        float* sum_out = scratch.pulled + pulled_index<line<T>>(0, c, d3q19::q);
+#pragma omp simd
+        for (int l = 0; l < count; ++l) {
+          float sum = 0;
+#pragma GCC unroll 19
+          for (int i = 0; i < d3q19::q; ++i) sum += pc[i * line<T> + l];
+          sum_out[l] = sum;
+        }
+      }
       in.pop = scratch.pulled;
     }
     for (int i = 1; i < d3q19::q; ++i) {
