@@ -554,24 +554,43 @@ void WaterModel::fused_step_impl() {
 }
 
 void WaterModel::finish_step() {
-  const std::size_t stride = g_.direction_stride();
-  const double d = p_.rest_fraction;
-  // Fixed-temperature, zero-velocity bottom and top layers.
+  // Fixed-temperature, zero-velocity bottom and top layers: both components at rest
+  // equilibrium, the vapour keeping its density, the temperature at its fixed value. Row by
+  // row, a direction row at a time; the temperature's equilibrium is the same in every cell of
+  // a layer, computed once.
   if (!p_.periodic_z) {
+    const std::size_t stride = g_.direction_stride();
+    const float df = static_cast<float>(p_.rest_fraction), ref0 = static_cast<float>(reference(p_, 0));
+    const int nx = g_.nx;
     for (int z : {0, g_.nz - 1}) {
       const float temp = static_cast<float>(z == 0 ? p_.temperature_bottom : p_.temperature_top);
-      const float df = static_cast<float>(d);
-#pragma omp parallel for schedule(static)
-      for (int y = 0; y < g_.ny; ++y)
-        for (int x = 0; x < g_.nx; ++x) {
-          const std::size_t cell = g_.index(x, y, z);
-          float feq[d3q19::q];
-          d3q19::equilibrium_shifted<float>(rho_[0][cell] - static_cast<float>(reference(p_, 0)), rho_[0][cell], 0, 0,
-                                            0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
-          d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq);
-          for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
+      float feq_t[d3q19::q];
+      d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq_t);
+#pragma omp parallel
+      {
+        std::vector<float> vapour(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx)),
+            temperature(vapour);
+#pragma omp for schedule(static)
+        for (int y = 0; y < g_.ny; ++y) {
+          const std::size_t row = g_.index(0, y, z);
+          for (int x = 0; x < nx; ++x) {
+            const float rho = rho_[0][row + static_cast<std::size_t>(x)];
+            float feq[d3q19::q];
+            d3q19::equilibrium_shifted<float>(rho - ref0, rho, 0, 0, 0, df, feq);
+            for (int i = 0; i < d3q19::q; ++i) {
+              const std::size_t k =
+                  static_cast<std::size_t>(i) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x);
+              vapour[k] = feq[i], temperature[k] = feq_t[i];
+            }
+          }
+          for (int i = 0; i < d3q19::q; ++i) {
+            const std::size_t at = static_cast<std::size_t>(i) * stride + row;
+            const std::size_t k = static_cast<std::size_t>(i) * static_cast<std::size_t>(nx);
+            f_[0].write(at, static_cast<std::size_t>(nx), vapour.data() + k);
+            f_[1].write(at, static_cast<std::size_t>(nx), temperature.data() + k);
+          }
         }
+      }
     }
   }
   ++step_;
