@@ -185,7 +185,7 @@ TEST_P(WaterModelStorage, StableDeterministicAndResumable) {
   EXPECT_EQ(c.steps_done(), 10);
   EXPECT_EQ(c.params().storage, GetParam());
   for (int t = 0; t < 10; ++t) c.step();
-  // More threads than 16-row blocks: 3 and 5 threads cut the 24 rows into blocks of 8 and 4.
+  // 1, 2, 3 and 5 threads cut the 24 rows into blocks of 24, 12, 8 and 4 (see fused_step_impl).
   for (const int threads : {3, 5}) {
     set_threads(threads);
     WaterModel d = make();

@@ -498,17 +498,19 @@ void WaterModel::fused_step_impl() {
   // side of the block). The densities live in the block's own ring of three planes, so no two
   // threads write the same place; halo rows are computed by both blocks beside them, from the
   // same inputs, to the same bits. Pass 1 pulls from the current state and keeps what it pulled
-  // for the block's own rows in a ring of block + 2 rows (~0.35 MiB at 16 x 128 cells in FP32,
-  // in the core's L2), where pass 2 of the next plane finds it: pass 2 reads it at fixed offsets
+  // for the block's own rows in a ring of block + 2 rows (0.66 MiB at 32 x 128 cells in FP32,
+  // mostly in the core's L2), where pass 2 of the next plane finds it: pass 2 reads it at fixed offsets
   // instead of pulling 38 rows again through pointers and wrap-around copies. Pass 2 writes the
   // next state, so every row sees exactly the inputs of the two-pass order (bit-identical to
   // step_stage(), whatever the thread count). A step reads the state from memory once and
-  // writes it once (608 B per cell for both components in FP32). Walls in z only. With more
-  // threads than 16-row blocks (128 rows on more than 8 cores) the blocks shrink, to no fewer
-  // than 4 rows, so that every thread has one: each block recomputes two halo rows of
-  // densities, and the results do not depend on the blocking.
+  // writes it once (608 B per cell for both components in FP32). Walls in z only. Blocks of
+  // 32 rows: each block recomputes two halo rows of densities, 6 % of pass 1 (16-row blocks,
+  // whose ring fits the L2 whole, measured 5 % slower per step on a Zen 3: their halo rows cost
+  // more than the L2 hits save). With more threads than 32-row blocks (128 rows on more than 4
+  // cores) the blocks shrink, to no fewer than 4 rows, so that every thread has one; the
+  // results do not depend on the blocking.
   const int nz = g_.nz, ny = g_.ny, nx = g_.nx;
-  const int block = std::clamp(ny / std::max(thread_count(), 1), 4, 16);
+  const int block = std::clamp(ny / std::max(thread_count(), 1), 4, 32);
   const int blocks = (ny + block - 1) / block;
   const std::size_t ring = static_cast<std::size_t>(3) * (block + 2) * static_cast<std::size_t>(nx);
   const std::size_t row_floats = pulled_row_size<line<T>>(nx);
