@@ -235,25 +235,42 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   };
   // 3. The march.
   const double thr = shell.threshold();
-  for (int k = 0; k <= steps; ++k) {
+  // The two per-step loops vectorise (GCC 12) only through raw pointers, with the points
+  // written as plain doubles and the booleans combined with & (see stage 1): through the
+  // thread-local vectors and Vec3 stores they ran lane by lane (measured: ~4 % of a frame).
+  {
+    const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
+    const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();
+    double *pts = &w.pts[0].x, *v_prev = w.v_prev.data(), *lo = w.lo.data(), *hi = w.hi.data();
+    double* depth_after = w.depth_after.data();
+    int* k_hit = w.k_hit.data();
+    for (int k = 0; k <= steps; ++k) {
+      const double kd = k, km1 = k > 0 ? k - 1 : 0;
 #pragma omp simd
-    for (std::size_t j = 0; j < nr; ++j) w.pts[j] = point(j, k * w.ds[j]);
-    shell.classify(w.pts.data(), nr, w.vals.data());
+      for (std::size_t j = 0; j < nr; ++j) {
+        const double s = kd * ds[j];
+        const double t = s <= mla[j] ? ma0[j] + s : mb0[j] + (s - mla[j]);  // t_at(j, s)
+        pts[3 * j] = std::fma(t, rdx[j], ox), pts[3 * j + 1] = std::fma(t, rdy[j], oy);
+        pts[3 * j + 2] = std::fma(t, rdz[j], oz);
+      }
+      shell.classify(w.pts.data(), nr, w.vals.data());
 #pragma omp simd
-    for (std::size_t j = 0; j < nr; ++j) {
-      const double v = w.vals[j] - thr, vp = w.v_prev[j];
-      const bool first = w.k_hit[j] < 0 && v > 0;  // first sample inside: bracket the crossing
-      // After the crossing step, depth by linear interpolation between samples (of CF, or of
-      // the bounds classify() returns, which keep CF's side: accuracy of order one step):
-      // the length of the step where the interpolant exceeds 0.
-      const bool after = w.k_hit[j] >= 0;
-      const double x = vp / (vp - v);  // where the interpolant crosses 0 (used only on a sign change)
-      const double inside = !after ? 0.0 : vp > 0 && v > 0 ? 1.0 : vp <= 0 && v <= 0 ? 0.0 : vp > 0 ? x : 1 - x;
-      w.depth_after[j] = std::fma(w.ds[j], inside, w.depth_after[j]);
-      w.lo[j] = first ? (k > 0 ? (k - 1) * w.ds[j] : 0.0) : w.lo[j];
-      w.hi[j] = first ? k * w.ds[j] : w.hi[j];
-      w.k_hit[j] = first ? k : w.k_hit[j];
-      w.v_prev[j] = v;
+      for (std::size_t j = 0; j < nr; ++j) {
+        const double v = vals[j] - thr, vp = v_prev[j];
+        const bool after = k_hit[j] >= 0;
+        const bool first = !after & (v > 0);  // first sample inside: bracket the crossing
+        // After the crossing step, depth by linear interpolation between samples (of CF, or of
+        // the bounds classify() returns, which keep CF's side: accuracy of order one step):
+        // the length of the step where the interpolant exceeds 0.
+        const double x = vp / (vp - v);  // where the interpolant crosses 0 (used only on a sign change)
+        const bool both_in = (vp > 0) & (v > 0), both_out = (vp <= 0) & (v <= 0);
+        const double inside = !after ? 0.0 : both_in ? 1.0 : both_out ? 0.0 : vp > 0 ? x : 1 - x;
+        depth_after[j] = std::fma(ds[j], inside, depth_after[j]);
+        lo[j] = first ? km1 * ds[j] : lo[j];
+        hi[j] = first ? kd * ds[j] : hi[j];
+        k_hit[j] = first ? k : k_hit[j];
+        v_prev[j] = v;
+      }
     }
   }
   // 4. Keep the rays that found cloud; refine their first crossing by bisection, all together.
