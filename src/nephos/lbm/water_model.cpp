@@ -499,7 +499,7 @@ void WaterModel::fused_step_impl() {
   // threads write the same place; halo rows are computed by both blocks beside them, from the
   // same inputs, to the same bits. Pass 1 pulls from the current state and keeps what it pulled
   // for the block's own rows in a ring of block + 2 rows (0.66 MiB at 32 x 128 cells in FP32,
-  // mostly in the core's L2), where pass 2 of the next plane finds it: pass 2 reads it at fixed offsets
+  // partly in the core's L2, the rest in L3), where pass 2 of the next plane finds it: pass 2 reads it at fixed offsets
   // instead of pulling 38 rows again through pointers and wrap-around copies. Pass 2 writes the
   // next state, so every row sees exactly the inputs of the two-pass order (bit-identical to
   // step_stage(), whatever the thread count). A step reads the state from memory once and
