@@ -415,6 +415,11 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     } else {
       for (int c = 0; c < 2; ++c) {
         for (int i = 0; i < d3q19::q; ++i) {
+          // Without pass 1 just before it (the two-sweep step), this copy waits on memory:
+          // prefetch the same direction's line of the next row, as pass 1 does.
+          const char* ahead = reinterpret_cast<const char*>(rs[c].row[static_cast<std::size_t>(i)] + x0 + nx);
+          __builtin_prefetch(ahead);
+          __builtin_prefetch(ahead + 64);
           float* dst = scratch.pulled + pulled_index<line<T>>(0, c, i);
           const float* src = pulled(rs[c], i, x0, count, dst);
           if (src != dst) std::copy_n(src, count, dst);
