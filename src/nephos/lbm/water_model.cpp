@@ -205,6 +205,38 @@ inline void store_line(float* dst, const float* src, int n) { store_streaming(ds
 inline void store_line(std::uint16_t* dst, const float* src, int n) {
   floats_to_halves_streaming(dst, src, n, fp16_scale);
 }
+// The sources of one line (cells x0 .. x0 + count - 1) of one component, direction by
+// direction (pulled()), with a software prefetch of the same lines one row ahead (consecutive
+// rows of a direction are consecutive in memory): 19 streams at a time are more than the
+// hardware prefetchers follow, and without it a pass that pulls waits on memory (measured
+// ~15 % of a step). `buf` (q line<T> floats) holds the spans that are not FP32 in place.
+template <class T>
+inline void pull_line(const RowSourcesOf<T>& rs, int x0, int count, float* buf, const float* src[d3q19::q]) {
+  for (int i = 0; i < d3q19::q; ++i) {
+    const char* ahead = reinterpret_cast<const char*>(rs.row[static_cast<std::size_t>(i)] + x0 + rs.nx);
+    __builtin_prefetch(ahead);
+    __builtin_prefetch(ahead + 64);  // a line is two cache lines
+    src[i] = pulled(rs, i, x0, count, buf + i * line<T>);
+  }
+}
+
+// A pulled line kept in the pulled_index layout: direction i's values at out[i L + l] and
+// their sum, the density deviation added in direction order, at out[q L + l]. The one place
+// that sum is formed, so both ways of stepping collide on the same bits.
+template <int L>
+inline void keep_line(const float* const src[d3q19::q], int count, float* out) {
+#pragma omp simd
+  for (int l = 0; l < count; ++l) {
+    float sum = 0;
+#pragma GCC unroll 19
+    for (int i = 0; i < d3q19::q; ++i) {
+      const float v = src[i][l];
+      out[i * L + l] = v;
+      sum += v;
+    }
+    out[d3q19::q * L + l] = sum;
+  }
+}
 }  // namespace
 
 template <class T>
@@ -225,30 +257,14 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
     for (int x0 = 0; x0 < nx; x0 += line<T>) {
       const int count = std::min(line<T>, nx - x0);
       const float* src[d3q19::q];
-      for (int i = 0; i < d3q19::q; ++i) {
-        // Software prefetch of the same stream one row ahead (consecutive rows of a direction
-        // are consecutive in memory): 19 streams at a time are more than the hardware
-        // prefetchers follow, and without it this pass waits on memory (measured ~15 % of a step).
-        const char* ahead = reinterpret_cast<const char*>(rs.row[static_cast<std::size_t>(i)] + x0 + nx);
-        __builtin_prefetch(ahead);
-        __builtin_prefetch(ahead + 64);  // a line is two cache lines
-        src[i] = pulled(rs, i, x0, count, buf + i * line<T>);
-      }
+      pull_line(rs, x0, count, buf, src);
       float* rho = (c == 0 ? rows.rho1 : rows.rho2) + base + x0;
       if (pulled_out) {
         float* out = pulled_out + pulled_index<line<T>>(x0, c, 0);
+        keep_line<line<T>>(src, count, out);
+        const float* sum = out + d3q19::q * line<T>;
 #pragma omp simd
-        for (int l = 0; l < count; ++l) {
-          float sum = 0;
-#pragma GCC unroll 19
-          for (int i = 0; i < d3q19::q; ++i) {
-            const float v = src[i][l];
-            out[i * line<T> + l] = v;
-            sum += v;
-          }
-          out[d3q19::q * line<T> + l] = sum;
-          rho[l] = sum + ref;
-        }
+        for (int l = 0; l < count; ++l) rho[l] = sum[l] + ref;
       } else {
 #pragma omp simd
         for (int l = 0; l < count; ++l) {
@@ -269,6 +285,7 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
 struct WaterModel::RowScratch {
   alignas(64) float edge[2][d3q19::q * max_line];         // neighbours' Psi_1 and rho_2 of lines that wrap around x
   alignas(64) float pulled[2 * pulled_slots * max_line];  // one line's pulled populations (pulled_index layout)
+  alignas(64) float wrapped[d3q19::q * max_line];         // pulled spans that are not FP32 in place
   alignas(64) float post[2][d3q19::q * max_line];         // one line's post-collision populations (direction-major)
 };
 
@@ -413,27 +430,12 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     if (pulled_row) {
       in.pop = pulled_row + pulled_index<line<T>>(x0, 0, 0);
     } else {
+      // The two-sweep step: pass 1 ran a whole sweep earlier, so pull the line again, as pass
+      // 1 does (with its prefetch: without it these pulls waited on memory, 1.5x slower).
       for (int c = 0; c < 2; ++c) {
-        for (int i = 0; i < d3q19::q; ++i) {
-          // Without pass 1 just before it (the two-sweep step), this copy waits on memory:
-          // prefetch the same direction's line of the next row, as pass 1 does.
-          const char* ahead = reinterpret_cast<const char*>(rs[c].row[static_cast<std::size_t>(i)] + x0 + nx);
-          __builtin_prefetch(ahead);
-          __builtin_prefetch(ahead + 64);
-          float* dst = scratch.pulled + pulled_index<line<T>>(0, c, i);
-          const float* src = pulled(rs[c], i, x0, count, dst);
-          if (src != dst) std::copy_n(src, count, dst);
-        }
-        // drho, summed as pass 1 sums it (the same order, the same bits).
-        const float* pc = scratch.pulled + pulled_index<line<T>>(0, c, 0);
-        float* sum_out = scratch.pulled + pulled_index<line<T>>(0, c, d3q19::q);
-#pragma omp simd
-        for (int l = 0; l < count; ++l) {
-          float sum = 0;
-#pragma GCC unroll 19
-          for (int i = 0; i < d3q19::q; ++i) sum += pc[i * line<T> + l];
-          sum_out[l] = sum;
-        }
+        const float* src[d3q19::q];
+        pull_line(rs[c], x0, count, scratch.wrapped, src);
+        keep_line<line<T>>(src, count, scratch.pulled + pulled_index<line<T>>(0, c, 0));
       }
       in.pop = scratch.pulled;
     }
@@ -573,10 +575,13 @@ void WaterModel::finish_step() {
       const float temp = static_cast<float>(z == 0 ? p_.temperature_bottom : p_.temperature_top);
       float feq_t[d3q19::q];
       d3q19::equilibrium_shifted<float>(temp - static_cast<float>(reference(p_, 1)), temp, 0, 0, 0, df, feq_t);
+      // The temperature's direction rows, the same for every row of the layer.
+      std::vector<float> temperature(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx));
+      for (int i = 0; i < d3q19::q; ++i)
+        std::fill_n(temperature.begin() + static_cast<std::ptrdiff_t>(i) * nx, nx, feq_t[i]);
 #pragma omp parallel
       {
-        std::vector<float> vapour(static_cast<std::size_t>(d3q19::q) * static_cast<std::size_t>(nx)),
-            temperature(vapour);
+        std::vector<float> vapour(temperature.size());
 #pragma omp for schedule(static)
         for (int y = 0; y < g_.ny; ++y) {
           const std::size_t row = g_.index(0, y, z);
@@ -584,11 +589,8 @@ void WaterModel::finish_step() {
             const float rho = rho_[0][row + static_cast<std::size_t>(x)];
             float feq[d3q19::q];
             d3q19::equilibrium_shifted<float>(rho - ref0, rho, 0, 0, 0, df, feq);
-            for (int i = 0; i < d3q19::q; ++i) {
-              const std::size_t k =
-                  static_cast<std::size_t>(i) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x);
-              vapour[k] = feq[i], temperature[k] = feq_t[i];
-            }
+            for (int i = 0; i < d3q19::q; ++i)
+              vapour[static_cast<std::size_t>(i) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x)] = feq[i];
           }
           for (int i = 0; i < d3q19::q; ++i) {
             const std::size_t at = static_cast<std::size_t>(i) * stride + row;
