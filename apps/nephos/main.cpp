@@ -327,7 +327,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     // two copies of 19 directions plus coefficients, and the output fields.
     const lbm::Grid3 lattice =
         o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
-    const double water = app::mpi_launched() ? 0.0 : params.storage == lbm::Storage::fp16 ? 164 : 316;
+    const double water = app::mpi_launched() ? 0.0 : params.storage == lbm::Storage::fp16 ? 180 : 316;
     const double percolation = 5.0 * std::pow(o.percolation, 3) / 8 + 8, lighting = 2 * 19 * 4 + 8, fields = 5 * 4;
     require_memory(static_cast<double>(lattice.cells()) * (std::max({water, percolation, lighting}) + fields), "--grid",
                    fmt::format("the {} lattice with percolation K = {}", lattice.describe(), o.percolation));

@@ -119,6 +119,31 @@ inline void floats_to_halves_streaming(std::uint16_t* dst, const float* src, int
   floats_to_halves(dst + l, src + l, n - l, scale);
 }
 
+/// floats_to_halves_streaming(), and what the rounding lost added to `lost`: lost[l] +=
+/// src[l] - half(src[l] * scale) / scale for l < n. The same bits on every path (the scaling
+/// by a power of two and the conversion back are exact, the subtraction and the sum round
+/// once each). For mass-conserving FP16 storage: the population kept in FP32 takes it up.
+inline void floats_to_halves_streaming_tracked(std::uint16_t* dst, const float* src, int n, float scale, float* lost) {
+  int l = 0;
+  const float inverse = 1.0f / scale;
+#if defined(__F16C__) && defined(__AVX2__)
+  if ((reinterpret_cast<std::uintptr_t>(dst) & 15) == 0)
+    for (; l + 8 <= n; l += 8) {
+      const __m256 v = _mm256_loadu_ps(src + l);
+      const __m128i h =
+          _mm256_cvtps_ph(_mm256_mul_ps(v, _mm256_set1_ps(scale)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+      _mm_stream_si128(reinterpret_cast<__m128i*>(dst + l), h);
+      const __m256 back = _mm256_mul_ps(_mm256_cvtph_ps(h), _mm256_set1_ps(inverse));
+      _mm256_storeu_ps(lost + l, _mm256_add_ps(_mm256_loadu_ps(lost + l), _mm256_sub_ps(v, back)));
+    }
+#endif
+  for (; l < n; ++l) {
+    const std::uint16_t h = float_to_half(src[l] * scale);
+    dst[l] = h;
+    lost[l] += src[l] - half_to_float(h) * inverse;
+  }
+}
+
 #pragma GCC diagnostic pop
 
 }  // namespace nephos::lbm

@@ -71,6 +71,39 @@ TEST(Half, VectorPathsMatchThePortableOne) {
   for (int k = 0; k < n; ++k) ASSERT_EQ(plain[static_cast<std::size_t>(k) + 1], dst[k]) << src[k];
 }
 
+TEST(Half, TrackedStoreKeepsWhatRoundingLost) {
+  // floats_to_halves_streaming_tracked stores what floats_to_halves stores and adds to `lost`
+  // exactly src - (the stored half) / scale, rounded once: the vector path (aligned
+  // destination) and the portable one (unaligned) give the same bits. So src[k] = stored +
+  // lost to within one float rounding of the difference (conservative FP16 rounding).
+  const int n = 4099;
+  const float scale = 1024.0f;
+  std::vector<float> src(n), lost_vector(n, 0.25f), lost_portable(n, 0.25f);
+  for (int k = 0; k < n; ++k) {
+    const double u = uniform01(11, 0x7c3, static_cast<std::uint64_t>(k));
+    src[static_cast<std::size_t>(k)] = static_cast<float>((u - 0.5) * std::ldexp(1.0, static_cast<int>(u * 20) - 12));
+  }
+  alignas(64) static std::uint16_t aligned[4099 + 32];
+  std::vector<std::uint16_t> unaligned(static_cast<std::size_t>(n) + 1), plain(static_cast<std::size_t>(n));
+  floats_to_halves_streaming_tracked(aligned, src.data(), n, scale, lost_vector.data());
+  stream_fence();
+  // One at a time: only the portable path runs.
+  for (int k = 0; k < n; ++k)
+    floats_to_halves_streaming_tracked(unaligned.data() + 1 + k, src.data() + k, 1, scale, lost_portable.data() + k);
+  floats_to_halves(plain.data(), src.data(), n, scale);
+  for (int k = 0; k < n; ++k) {
+    const auto ku = static_cast<std::size_t>(k);
+    ASSERT_EQ(aligned[k], plain[ku]);
+    ASSERT_EQ(unaligned[ku + 1], plain[ku]);
+    ASSERT_EQ(std::bit_cast<std::uint32_t>(lost_vector[ku]), std::bit_cast<std::uint32_t>(lost_portable[ku]));
+    // lost - 0.25 is the rounding error of the stored value: at most half a half's spacing,
+    // 2^-11 of the value (plus the float rounding of the sum with 0.25, 2^-25).
+    const double stored = static_cast<double>(half_to_float(plain[ku])) / scale;
+    EXPECT_NEAR(static_cast<double>(lost_vector[ku]) - 0.25, static_cast<double>(src[ku]) - stored, 3e-8);
+    EXPECT_LE(std::abs(static_cast<double>(src[ku]) - stored), std::ldexp(std::abs(src[ku]), -11) + 1e-12);
+  }
+}
+
 TEST(VectorMath, ExpMatchesLibm) {
   // exp_nonpositive against libm's expf (correctly rounded to within 1 ulp) over [-87, 0]: at
   // most 2 ulp apart (relative 2.4e-7), every float of the range sampled by 1e6 hashed points

@@ -4,11 +4,14 @@
 // storage.
 //
 // FP16 storage keeps the arithmetic in FP32 and only stores halves: 2 instead of 4 bytes per
-// population, so a streaming step moves half the bytes. The stored values are the populations
-// shifted by their rest values (d3q19::equilibrium_shifted), times fp16_scale = 2^10: shifted
-// populations are small (|f_i - w_i rho_ref| ~ 1e-4 .. 1e-1) and the scale keeps them out of
-// FP16's subnormal range (below 6.1e-5) while leaving room up to |f_i - w_i rho_ref| < 64. A
-// power of two, so scaling itself never rounds. See docs/lbm.md for the error this costs.
+// moving population, so a streaming step moves about half the bytes. The stored values are the
+// populations shifted by their rest values (d3q19::equilibrium_shifted), times fp16_scale =
+// 2^10: shifted populations are small (|f_i - w_i rho_ref| ~ 1e-4 .. 1e-1) and the scale keeps
+// them out of FP16's subnormal range (below 6.1e-5) while leaving room up to |f_i - w_i
+// rho_ref| < 64. A power of two, so scaling itself never rounds. The rest population (direction
+// 0, which never moves) stays FP32 (rest()): the collision adds to it what rounding the moving
+// ones lost, so every cell keeps its mass to FP32 rounding (conservative rounding). See
+// docs/lbm.md for the error this costs.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -37,40 +40,52 @@ inline constexpr float fp16_scale = 1024.0f;  ///< stored half = (f_i - w_i rho_
 class Populations {
  public:
   Populations() = default;
-  Populations(Storage storage, std::size_t size) : storage_(storage) {
-    if (storage == Storage::fp32)
+  /// q directions of `stride` values each (population i of cell n at i * stride + n).
+  Populations(Storage storage, int q, std::size_t stride) : storage_(storage), stride_(stride) {
+    const std::size_t size = static_cast<std::size_t>(q) * stride;
+    if (storage == Storage::fp32) {
       f32_.assign(size, 0.0f);
-    else
-      f16_.assign(size, 0);
+    } else {
+      f16_.assign(size, 0);  // direction 0's halves unused: flat indices stay those of FP32
+      rest_.assign(stride, 0.0f);
+    }
   }
   Storage storage() const { return storage_; }
   std::size_t size() const { return storage_ == Storage::fp32 ? f32_.size() : f16_.size(); }
 
   float get(std::size_t k) const {
-    return storage_ == Storage::fp32 ? f32_[k] : half_to_float(f16_[k]) * (1.0f / fp16_scale);
+    if (storage_ == Storage::fp32) return f32_[k];
+    return k < stride_ ? rest_[k] : half_to_float(f16_[k]) * (1.0f / fp16_scale);
   }
   void set(std::size_t k, float v) {
     if (storage_ == Storage::fp32)
       f32_[k] = v;
+    else if (k < stride_)
+      rest_[k] = v;
     else
       f16_[k] = float_to_half(v * fp16_scale);
   }
-  /// out[j] = get(k + j) for j < n.
+  /// out[j] = get(k + j) for j < n; the range lies within one direction.
   void read(std::size_t k, std::size_t n, float* out) const {
     if (storage_ == Storage::fp32)
       std::copy_n(f32_.data() + k, n, out);
+    else if (k < stride_)
+      std::copy_n(rest_.data() + k, n, out);
     else
       halves_to_floats(f16_.data() + k, out, static_cast<int>(n), 1.0f / fp16_scale);
   }
-  /// set(k + j, in[j]) for j < n.
+  /// set(k + j, in[j]) for j < n; the range lies within one direction.
   void write(std::size_t k, std::size_t n, const float* in) {
     if (storage_ == Storage::fp32)
       std::copy_n(in, n, f32_.data() + k);
+    else if (k < stride_)
+      std::copy_n(in, n, rest_.data() + k);
     else
       floats_to_halves(f16_.data() + k, in, static_cast<int>(n), fp16_scale);
   }
 
-  /// The stored values as T: float (FP32 storage) or std::uint16_t (FP16 bits).
+  /// The stored values as T: float (FP32 storage) or std::uint16_t (FP16 bits of directions
+  /// 1 .. q - 1; direction 0 is rest()).
   template <class T>
   T* data() {
     if constexpr (std::is_same_v<T, float>)
@@ -85,19 +100,26 @@ class Populations {
     else
       return f16_.data();
   }
+  /// Direction 0, the rest population, as FP32 in either storage (`stride` values).
+  float* rest() { return storage_ == Storage::fp32 ? f32_.data() : rest_.data(); }
+  const float* rest() const { return storage_ == Storage::fp32 ? f32_.data() : rest_.data(); }
 
   void swap(Populations& other) noexcept {
     std::swap(storage_, other.storage_);
+    std::swap(stride_, other.stride_);
     f32_.swap(other.f32_);
     f16_.swap(other.f16_);
+    rest_.swap(other.rest_);
   }
 
  private:
   Storage storage_ = Storage::fp32;
+  std::size_t stride_ = 0;
   // Huge pages: 2 MiB-aligned rows for streaming stores, and fewer TLB misses over the
   // kernels' 38 concurrent streams.
   std::vector<float, HugePageAllocator<float>> f32_;
   std::vector<std::uint16_t, HugePageAllocator<std::uint16_t>> f16_;
+  std::vector<float, HugePageAllocator<float>> rest_;  // FP16 storage: direction 0 in FP32
 };
 
 }  // namespace nephos::lbm

@@ -71,8 +71,8 @@ WaterModel::WaterModel(Grid3 global, WaterModelParams params, int y_begin, int y
 WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(grid), p_(params) {
   const std::size_t n = g_.cells();
   for (int c = 0; c < 2; ++c) {
-    f_[c] = Populations(p_.storage, g_.population_size(d3q19::q));
-    next_[c] = Populations(p_.storage, g_.population_size(d3q19::q));
+    f_[c] = Populations(p_.storage, d3q19::q, g_.direction_stride());
+    next_[c] = Populations(p_.storage, d3q19::q, g_.direction_stride());
     rho_[c].assign(n, 0.0f);
   }
   psi1_.assign(n, 0.0f);
@@ -202,17 +202,20 @@ inline const float* pulled(const RowSourcesOf<std::uint16_t>& rs, int i, int x0,
 }
 
 inline void store_line(float* dst, const float* src, int n) { store_streaming(dst, src, static_cast<std::size_t>(n)); }
-inline void store_line(std::uint16_t* dst, const float* src, int n) {
-  floats_to_halves_streaming(dst, src, n, fp16_scale);
-}
 // The sources of one line (cells x0 .. x0 + count - 1) of one component, direction by
 // direction (pulled()), with a software prefetch of the same lines one row ahead (consecutive
 // rows of a direction are consecutive in memory): 19 streams at a time are more than the
 // hardware prefetchers follow, and without it a pass that pulls waits on memory (measured
 // ~15 % of a step). `buf` (q line<T> floats) holds the spans that are not FP32 in place.
+// Direction 0 (rest) is FP32 in either storage, in place at rest_row (the row's first cell);
+// it does not move, so its line never wraps.
 template <class T>
-inline void pull_line(const RowSourcesOf<T>& rs, int x0, int count, float* buf, const float* src[d3q19::q]) {
-  for (int i = 0; i < d3q19::q; ++i) {
+inline void pull_line(const RowSourcesOf<T>& rs, const float* rest_row, int x0, int count, float* buf,
+                      const float* src[d3q19::q]) {
+  const char* rest_ahead = reinterpret_cast<const char*>(rest_row + x0 + rs.nx);
+  for (std::size_t b = 0; b < line<T> * sizeof(float); b += 64) __builtin_prefetch(rest_ahead + b);
+  src[0] = rest_row + x0;
+  for (int i = 1; i < d3q19::q; ++i) {
     const char* ahead = reinterpret_cast<const char*>(rs.row[static_cast<std::size_t>(i)] + x0 + rs.nx);
     __builtin_prefetch(ahead);
     __builtin_prefetch(ahead + 64);  // a line is two cache lines
@@ -253,11 +256,12 @@ void WaterModel::density_row(int y, int z, const DensityRows& rows, float* pulle
   alignas(64) float buf[d3q19::q * line<T>];  // pulled populations where they are not FP32 in place
   for (int c = 0; c < 2; ++c) {
     const RowSourcesOf<T> rs = row_sources(g_, f_[c].data<T>(), wy, z, zb);
+    const float* rest_row = f_[c].rest() + g_.index(0, wy, z);
     const float ref = static_cast<float>(reference(p_, c));
     for (int x0 = 0; x0 < nx; x0 += line<T>) {
       const int count = std::min(line<T>, nx - x0);
       const float* src[d3q19::q];
-      pull_line(rs, x0, count, buf, src);
+      pull_line(rs, rest_row, x0, count, buf, src);
       float* rho = (c == 0 ? rows.rho1 : rows.rho2) + base + x0;
       if (pulled_out) {
         float* out = pulled_out + pulled_index<line<T>>(x0, c, 0);
@@ -411,6 +415,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
   const std::size_t base = g_.index(0, y, z), dbase = rows.row(y, z);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
   RowSourcesOf<T> rs[2];
+  const float* rest_row[2] = {f_[0].rest() + base, f_[1].rest() + base};
   if (!pulled_row)
     for (int c = 0; c < 2; ++c) rs[c] = row_sources(g_, f_[c].data<T>(), y, z, zb);
   // Neighbour rows of the gradients (walls: the row beyond is the row itself).
@@ -434,7 +439,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
       // 1 does (with its prefetch: without it these pulls waited on memory, 1.5x slower).
       for (int c = 0; c < 2; ++c) {
         const float* src[d3q19::q];
-        pull_line(rs[c], x0, count, scratch.wrapped, src);
+        pull_line(rs[c], rest_row[c], x0, count, scratch.wrapped, src);
         keep_line<line<T>>(src, count, scratch.pulled + pulled_index<line<T>>(0, c, 0));
       }
       in.pop = scratch.pulled;
@@ -454,10 +459,22 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     // (128 bytes): the streaming stores drain while the next line computes. Written a whole
     // row at a time after the row (19 streams of 512-byte rows), they came in one burst the
     // core waited on: 5 % slower in ten alternating pairs (docs/PERFORMANCE.md).
-    for (int c = 0; c < 2; ++c)
-      for (int i = 0; i < d3q19::q; ++i)
-        store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base + x0,
-                   scratch.post[c] + static_cast<std::size_t>(i) * line<T>, count);
+    for (int c = 0; c < 2; ++c) {
+      float* const post_c = scratch.post[c];
+      if constexpr (std::is_same_v<T, std::uint16_t>) {
+        // Conservative rounding: the rest population, kept in FP32, takes up what rounding the
+        // moving ones to FP16 lost, so the cell's mass is what the collision left (to FP32
+        // rounding) and the lattice's is conserved as in FP32 storage.
+        for (int i = 1; i < d3q19::q; ++i)
+          floats_to_halves_streaming_tracked(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base + x0,
+                                             post_c + static_cast<std::size_t>(i) * line<T>, count, fp16_scale, post_c);
+        store_streaming(next_[c].rest() + base + x0, post_c, static_cast<std::size_t>(count));
+      } else {
+        for (int i = 0; i < d3q19::q; ++i)
+          store_line(next_[c].data<T>() + static_cast<std::size_t>(i) * stride + base + x0,
+                     post_c + static_cast<std::size_t>(i) * line<T>, count);
+      }
+    }
   }
 }
 
