@@ -421,45 +421,49 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
     const optics::OpticalProperties vis_props =
         optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
                              shell.params().effective_radius_um, optics::band("vis"));
-#pragma omp parallel for schedule(dynamic, 4)
-    for (int y = 0; y < h; ++y) {
-      // A whole row marched together (rays in lockstep: see march_shell).
+#pragma omp parallel
+    {
+      // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
       std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
       std::vector<double> t_max(static_cast<std::size_t>(w));
       std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-      sub.row_rays(sensor, y, dirs.data());
-      for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
-      march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
-                  params.bisection_iterations, row_hits.data());
-      for (int x = 0; x < w; ++x) {
-        const std::size_t px = static_cast<std::size_t>(y) * w + x;
-        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
-        if (!hit.hit) continue;
-        Layer& L = layers[px * ns + si];
-        L.t = static_cast<float>(hit.t);
-        const double r = glm::length(hit.position);
-        const earth::Vec3 up = hit.position / r;
-        L.altitude = static_cast<float>(r - earth::radius_m);
-        L.tau_vis = static_cast<float>(vis_props.extinction_per_m * hit.depth_m);
-        const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
-        const double mu0 = glm::dot(hit.normal, sun_dir);
-        const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
-        for (std::size_t b = 0; b < nb; ++b) {
-          const double tau = props[b].extinction_per_m * hit.depth_m;
-          const optics::SlabResult slab = optics::two_stream_slab(tau, props[b].single_scattering_albedo);
-          const double e_sun = bands[b]->solar_irradiance * sun_scale;
-          double rad = 0;
-          if (mu_sun_local > 0) {
-            rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
-            rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
+#pragma omp for schedule(dynamic, 4)
+      for (int y = 0; y < h; ++y) {
+        // A whole row marched together (rays in lockstep: see march_shell).
+        sub.row_rays(sensor, y, dirs.data());
+        for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
+        march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
+                    params.bisection_iterations, row_hits.data());
+        for (int x = 0; x < w; ++x) {
+          const std::size_t px = static_cast<std::size_t>(y) * w + x;
+          const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
+          if (!hit.hit) continue;
+          Layer& L = layers[px * ns + si];
+          L.t = static_cast<float>(hit.t);
+          const double r = glm::length(hit.position);
+          const earth::Vec3 up = hit.position / r;
+          L.altitude = static_cast<float>(r - earth::radius_m);
+          L.tau_vis = static_cast<float>(vis_props.extinction_per_m * hit.depth_m);
+          const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
+          const double mu0 = glm::dot(hit.normal, sun_dir);
+          const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
+          for (std::size_t b = 0; b < nb; ++b) {
+            const double tau = props[b].extinction_per_m * hit.depth_m;
+            const optics::SlabResult slab = optics::two_stream_slab(tau, props[b].single_scattering_albedo);
+            const double e_sun = bands[b]->solar_irradiance * sun_scale;
+            double rad = 0;
+            if (mu_sun_local > 0) {
+              rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
+              rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
+            }
+            const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
+            rad += emissivity * planck[b].forward(t_cloud);  // thermal emission
+            L.radiance[b] = static_cast<float>(rad);
+            L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
           }
-          const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
-          rad += emissivity * planck[b].forward(t_cloud);  // thermal emission
-          L.radiance[b] = static_cast<float>(rad);
-          L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
         }
+        progress.advance();
       }
-      progress.advance();
     }
     img.seconds_per_type.emplace_back(weather::name(shell.type()),
                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
