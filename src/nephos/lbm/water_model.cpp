@@ -224,8 +224,9 @@ inline void pull_line(const RowSourcesOf<T>& rs, const float* rest_row, int x0, 
 }
 
 // A pulled line kept in the pulled_index layout: direction i's values at out[i L + l] and
-// their sum, the density deviation added in direction order, at out[q L + l]. The one place
-// that sum is formed, so both ways of stepping collide on the same bits.
+// their sum, the density deviation added in direction order, at out[q L + l]. Both ways of
+// stepping take the collision's deviation from here, and density_row() adds in the same order
+// where it keeps nothing, so the densities and the collision agree to the bit either way.
 template <int L>
 inline void keep_line(const float* const src[d3q19::q], int count, float* out) {
 #pragma omp simd
@@ -414,10 +415,10 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
                          static_cast<float>(p_.buoyancy_reference)};
   const std::size_t base = g_.index(0, y, z), dbase = rows.row(y, z);
   const ZBoundary zb = p_.periodic_z ? ZBoundary::periodic : ZBoundary::walls;
-  RowSourcesOf<T> rs[2];
-  const float* rest_row[2] = {f_[0].rest() + base, f_[1].rest() + base};
+  RowSourcesOf<T> rs[2];       // the two-sweep step's sources (no pulled_row)
+  const float* rest_row[2]{};  // their rest populations' row
   if (!pulled_row)
-    for (int c = 0; c < 2; ++c) rs[c] = row_sources(g_, f_[c].data<T>(), y, z, zb);
+    for (int c = 0; c < 2; ++c) rs[c] = row_sources(g_, f_[c].data<T>(), y, z, zb), rest_row[c] = f_[c].rest() + base;
   // Neighbour rows of the gradients (walls: the row beyond is the row itself).
   const float* psi_row[d3q19::q];
   const float* rho2_row[d3q19::q];
