@@ -638,6 +638,10 @@ class Bench(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
         for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view", "CPU: ", "built for"):
             self.assertIn(anchor, r.stdout)
+        # Every cloud type and their mean, the measure of the seed's table (an average per shell).
+        every = next(l for l in r.stdout.splitlines() if l.startswith("every cloud type"))
+        for name in ("low_stratus", "low_cumulus", "altostratus", "cirrus", "mean"):
+            self.assertIn(name, every)
 
     def test_fly_bench_smoke(self):
         with tempfile.TemporaryDirectory() as d:
