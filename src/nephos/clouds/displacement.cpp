@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "nephos/weather/sampler.hpp"
 
@@ -10,6 +11,58 @@ namespace nephos::clouds {
 earth::Vec3 WindField::at(const earth::Vec3& p) const {
   const earth::Vec3 v(velocity_m_s.sample(p));
   return v - glm::dot(v, p) * p;  // keep it tangent (interpolation leaves a tiny radial part)
+}
+
+namespace {
+// The bilinear blends of a vec3 cube map's texels (t: its components, flat; row: floats per
+// texel row) at the locations (idx[i], tx[i], ty[i]), i < m. The loads are scalar on purpose:
+// left to itself GCC 12 vectorises this loop with gathers, which on the AMD Zen 3/4 cores we
+// measure on are slower than scalar loads from cached lines (the displacement maps, ~1 MiB,
+// are read coherently along image rows): the whole lookup took ~5 % more of a GEO frame
+// (docs/PERFORMANCE.md). noinline keeps the attribute in force.
+[[gnu::noinline, gnu::optimize("no-tree-vectorize")]] void blend_vec3(const float* t, std::size_t row,
+                                                                      const std::uint32_t* idx, const float* tx,
+                                                                      const float* ty, std::size_t m, float* bx,
+                                                                      float* by, float* bz) {
+  using Cube = CubeMap<float>;
+  for (std::size_t i = 0; i < m; ++i) {
+    const Cube::Location l{idx[i], tx[i], ty[i]};
+    const std::size_t k = 3 * static_cast<std::size_t>(l.index);
+    bx[i] = Cube::blend_at(l, t, k, 3, row), by[i] = Cube::blend_at(l, t, k + 1, 3, row);
+    bz[i] = Cube::blend_at(l, t, k + 2, 3, row);
+  }
+}
+}  // namespace
+
+void DisplacementMap::upwind(const double* x, const double* y, const double* z, std::size_t n, double* ux, double* uy,
+                             double* uz) const {
+  if (is_identity()) {
+    std::copy(x, x + n, ux), std::copy(y, y + n, uy), std::copy(z, z + n, uz);
+    return;
+  }
+  using Cube = CubeMap<float>;
+  static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
+  const float* t = &upwind_.data()[0].x;  // the texels' components, flat
+  const int size = upwind_.size();
+  const std::size_t row = 3 * static_cast<std::size_t>(size);
+  constexpr std::size_t block = 128;  // directions per pass (scratch on the stack: 3.5 KiB)
+  alignas(64) std::uint32_t idx[block];
+  alignas(64) float tx[block], ty[block], bx[block], by[block], bz[block];
+  for (std::size_t b0 = 0; b0 < n; b0 += block) {
+    const std::size_t m = std::min(block, n - b0);
+#pragma omp simd
+    for (std::size_t i = 0; i < m; ++i) {
+      const Cube::Location l = Cube::locate(size, x[b0 + i], y[b0 + i], z[b0 + i]);
+      idx[i] = l.index, tx[i] = l.tx, ty[i] = l.ty;
+    }
+    blend_vec3(t, row, idx, tx, ty, m, bx, by, bz);
+#pragma omp simd
+    for (std::size_t i = 0; i < m; ++i) {
+      const double vx = bx[i], vy = by[i], vz = bz[i];
+      const double inv_len = 1.0 / std::sqrt(vx * vx + vy * vy + vz * vz);
+      ux[b0 + i] = vx * inv_len, uy[b0 + i] = vy * inv_len, uz[b0 + i] = vz * inv_len;
+    }
+  }
 }
 
 WindField make_wind_field(const weather::WeatherGrid& weather, double altitude_m, int n) {

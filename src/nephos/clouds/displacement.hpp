@@ -42,29 +42,10 @@ class DisplacementMap {
     return u;
   }
   /// upwind() of n directions (x[i], y[i], z[i]) into (ux[i], uy[i], uz[i]); the arrays must
-  /// not overlap. A branch-free loop that vectorises; upwind(d) is this with n = 1, so the two
-  /// agree bit for bit.
+  /// not overlap. Vectorised loops around a scalar one for the texel loads; upwind(d) is this
+  /// with n = 1, so the two agree bit for bit.
   void upwind(const double* x, const double* y, const double* z, std::size_t n, double* ux, double* uy,
-              double* uz) const {
-    if (is_identity()) {
-      std::copy(x, x + n, ux), std::copy(y, y + n, uy), std::copy(z, z + n, uz);
-      return;
-    }
-    using Cube = CubeMap<float>;
-    static_assert(sizeof(glm::vec3) == 3 * sizeof(float));
-    const float* t = &upwind_.data()[0].x;  // the texels' components, flat
-    const int size = upwind_.size();
-    const std::size_t row = 3 * static_cast<std::size_t>(size);
-#pragma omp simd
-    for (std::size_t i = 0; i < n; ++i) {
-      const Cube::Location l = Cube::locate(size, x[i], y[i], z[i]);
-      const std::size_t k = 3 * static_cast<std::size_t>(l.index);
-      const double vx = Cube::blend_at(l, t, k, 3, row), vy = Cube::blend_at(l, t, k + 1, 3, row),
-                   vz = Cube::blend_at(l, t, k + 2, 3, row);
-      const double inv_len = 1.0 / std::sqrt(vx * vx + vy * vy + vz * vz);
-      ux[i] = vx * inv_len, uy[i] = vy * inv_len, uz[i] = vz * inv_len;
-    }
-  }
+              double* uz) const;
   const CubeMap<glm::vec3>& map() const { return upwind_; }
 
   /// Integrates every texel `hours` backwards in `wind` with time step `step_s` [s].
