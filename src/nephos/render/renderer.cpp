@@ -7,6 +7,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
@@ -27,9 +30,13 @@ struct Path {
 // Band-mean Planck radiance as a table over temperature for a fast exact-enough inverse.
 struct PlanckTable {
   static constexpr double t_lo = 100, t_hi = 400, dt = 0.01;
+  static constexpr int size = 30001;  // (t_hi - t_lo) / dt + 1 nodes
   std::vector<double> radiance;
-  explicit PlanckTable(const optics::Band& b) {
-    for (double t = t_lo; t <= t_hi + 1e-9; t += dt) radiance.push_back(optics::band_planck(b, t));
+  explicit PlanckTable(const optics::Band& b) : radiance(size) {
+    // 30 001 band integrals of 32 Planck evaluations each: ~0.1 s on one core, so built in
+    // parallel, and once per band for the process (planck_table()).
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < size; ++i) radiance[static_cast<std::size_t>(i)] = optics::band_planck(b, t_lo + i * dt);
   }
   double forward(double t) const {
     const double x = std::clamp((t - t_lo) / dt, 0.0, static_cast<double>(radiance.size() - 2));
@@ -333,16 +340,26 @@ std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bo
 
 namespace {
 
-// The bands of a render and their Planck tables, built once per render (each table holds
-// 30 000 band integrals).
+// The Planck table of a built-in band, built on first use and kept for the process (renders
+// of an animation, or the benchmark's, need not rebuild it).
+const PlanckTable& planck_table(const optics::Band& b) {
+  static std::mutex mutex;
+  static std::map<std::string, std::unique_ptr<const PlanckTable>> tables;
+  const std::lock_guard lock(mutex);
+  auto& table = tables[b.name];
+  if (!table) table = std::make_unique<const PlanckTable>(b);
+  return *table;
+}
+
+// The bands of a render and their Planck tables.
 struct BandTables {
   std::vector<const optics::Band*> bands;
-  std::vector<PlanckTable> planck;
+  std::vector<const PlanckTable*> planck;
   explicit BandTables(const std::vector<std::string>& names) {
     if (names.size() > 3) throw ValueError("at most 3 bands per render", {.key = "--bands"});
     for (const auto& name : names) {
       bands.push_back(&optics::band(name));
-      planck.emplace_back(*bands.back());
+      planck.push_back(&planck_table(*bands.back()));
     }
   }
 };
@@ -376,7 +393,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   const std::size_t nb = params.bands.size();
   const std::vector<const optics::Band*>& bands = tables.bands;
-  const std::vector<PlanckTable>& planck = tables.planck;
+  const std::vector<const PlanckTable*>& planck = tables.planck;
   const earth::Vec3 sun_dir = sun.direction_ecef;
   const double sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
   const double f_ind = params.indirect_fraction;
@@ -457,7 +474,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
               rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
             }
             const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
-            rad += emissivity * planck[b].forward(t_cloud);  // thermal emission
+            rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
             L.radiance[b] = static_cast<float>(rad);
             L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
           }
@@ -497,7 +514,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
         }
         for (std::size_t b = 0; b < nb; ++b)
           bg[b] =
-              params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b].forward(t_surf);
+              params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b]->forward(t_surf);
       }
       const Layer* pl = &layers[px * ns];
       for (std::size_t s = 0; s < ns; ++s) order[s] = s;
@@ -537,7 +554,7 @@ void add_brightness_temperatures(RenderImage& img, const BandTables& tables) {
     bt.resize(radiance.size());
 #pragma omp parallel for schedule(static)
     for (std::size_t px = 0; px < radiance.size(); ++px)
-      bt[px] = static_cast<float>(tables.planck[b].inverse(radiance[px]));
+      bt[px] = static_cast<float>(tables.planck[b]->inverse(radiance[px]));
   }
 }
 
