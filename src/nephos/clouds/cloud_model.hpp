@@ -137,19 +137,9 @@ class CloudShell {
     may_have_cloud(&d.x, &d.y, &d.z, 1, &out);
     return out != 0;
   }
-  /// may_have_cloud() of n directions (x[i], y[i], z[i]) into out[i] (1: possible, 0: clear);
-  /// a loop that vectorises, bit-identical to single calls (they are this with n = 1).
-  void may_have_cloud(const double* x, const double* y, const double* z, std::size_t n, std::uint8_t* out) const {
-    using Cube = CubeMap<float>;
-    const float* t = mask_max_.data().data();
-    const int size = mask_max_.size();
-    const double min_mask = p_.min_mask;
-#pragma omp simd
-    for (std::size_t i = 0; i < n; ++i) {
-      const Cube::Location l = Cube::locate(size, x[i], y[i], z[i]);
-      out[i] = static_cast<double>(Cube::blend_at(l, t, l.index, 1, static_cast<std::size_t>(size))) >= min_mask;
-    }
-  }
+  /// may_have_cloud() of n directions (x[i], y[i], z[i]) into out[i] (1: possible, 0: clear),
+  /// bit-identical to single calls (they are this with n = 1).
+  void may_have_cloud(const double* x, const double* y, const double* z, std::size_t n, std::uint8_t* out) const;
   /// Angular half-width [rad] of the neighbourhood may_have_cloud() covers.
   double skip_radius_rad() const { return skip_radius_rad_; }
   /// Replaces the displacement maps (animation).
