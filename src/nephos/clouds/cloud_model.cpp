@@ -574,13 +574,23 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
 double CloudShell::feature_size_m() const { return p_.fractals[1].length_scale_m / tex_->fine.size(); }
 
 CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
-                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed) {
+                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed,
+                       std::shared_ptr<const FractalTextures> textures) {
   CloudScene scene;
   using clock = std::chrono::steady_clock;
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
   auto t0 = clock::now();
-  spdlog::info("baking fractal textures {}^3 (seed {})", params.texture_size, seed);
-  scene.textures = std::make_shared<const FractalTextures>(FractalTextures::bake(params, seed));
+  if (textures) {
+    for (int i = 0; i < 3; ++i)
+      if ((*textures)[i].size() != params.texture_size)
+        throw ValueError(fmt::format("build_scene: the given fractal textures are {}^3, the parameters ask for {}^3",
+                                     (*textures)[i].size(), params.texture_size),
+                         {.key = "textures.size"});
+    scene.textures = std::move(textures);
+  } else {
+    spdlog::info("baking fractal textures {}^3 (seed {})", params.texture_size, seed);
+    scene.textures = std::make_shared<const FractalTextures>(FractalTextures::bake(params, seed));
+  }
   const double bake_s = seconds_since(t0);
   t0 = clock::now();
   std::vector<CubeMap<float>> cubes = mask_cubes(masks, types, params.mask_cube_size);

@@ -183,8 +183,12 @@ struct CloudScene {
 };
 
 /// Builds textures, masks' cube maps, winds and displacement maps for the requested types.
+/// `textures`, when given, are used instead of baking: they must be those of `params` and
+/// `seed` (e.g. another scene's, for other types or another weather state of the same run);
+/// a size other than params.texture_size is a ValueError.
 CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
-                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed);
+                       const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed,
+                       std::shared_ptr<const FractalTextures> textures = nullptr);
 /// Advances every shell's displacement maps by `hours` (frame-to-frame propagation).
 void advance_scene(CloudScene& scene, double hours, const CloudModelParams& params);
 

@@ -170,6 +170,34 @@ TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(std::memcmp(c.cloud_fraction.data(), d.cloud_fraction.data(), c.cloud_fraction.size() * sizeof(float)), 0);
 }
 
+TEST(RendererOnGfs, ASceneGivenAnotherScenesTexturesRendersAsIfItHadBakedThem) {
+  // The textures are a pure function of the parameters and the seed, so a scene that reuses
+  // another's (clouds::build_scene's last argument) must render bit for bit like one that
+  // bakes its own; textures of another size are an error naming the key.
+  const auto& r = real();
+  const auto masks = weather::compute_masks(r.w, weather::MaskParams{});
+  const std::vector<weather::CloudType> types{weather::CloudType::low_stratus};
+  const clouds::CloudScene reused = clouds::build_scene(r.w, masks, r.params, types, 3, r.scene.textures);
+  const clouds::CloudScene baked = clouds::build_scene(r.w, masks, r.params, types, 3);
+  EXPECT_EQ(reused.textures.get(), r.scene.textures.get());
+  EXPECT_NE(baked.textures.get(), r.scene.textures.get());
+  const Sensor s = Sensor::geostationary(-75.2, 64, 64);
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  const RenderImage a = render(reused, s, sun, RenderParams{}, &r.w);
+  const RenderImage b = render(baked, s, sun, RenderParams{}, &r.w);
+  EXPECT_GT(std::count(a.cloud_type.begin(), a.cloud_type.end(), 0), 50);  // low_stratus pixels to compare
+  for (std::size_t k = 0; k < a.radiance.size(); ++k)
+    EXPECT_EQ(std::memcmp(a.radiance[k].data(), b.radiance[k].data(), a.radiance[k].size() * sizeof(float)), 0);
+  clouds::CloudModelParams other = r.params;
+  other.texture_size = 32;
+  try {
+    clouds::build_scene(r.w, masks, other, types, 3, r.scene.textures);
+    ADD_FAILURE() << "textures of another size were accepted";
+  } catch (const ValueError& e) {
+    EXPECT_NE(std::string(e.what()).find("textures.size"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
   // The renderer marches a row of rays in lockstep; each must find exactly what it finds alone.
   const auto& r = real();
