@@ -214,8 +214,7 @@ void CloudShell::build_skip_map() {
 
 void CloudShell::may_have_cloud(const double* x, const double* y, const double* z, std::size_t n,
                                 std::uint8_t* out) const {
-  // Locations in a loop that vectorises; the texel loads in a scalar one (vectorised, GCC
-  // gathers them: slower on AMD cores than scalar loads from cached lines; see evaluate()).
+  // Located in a vectorised loop, read in a scalar one (CubeMap::locate_many).
   using Cube = CubeMap<float>;
   const float* t = mask_max_.data().data();
   const int size = mask_max_.size();
@@ -225,11 +224,7 @@ void CloudShell::may_have_cloud(const double* x, const double* y, const double* 
   alignas(64) float tx[block], ty[block];
   for (std::size_t b0 = 0; b0 < n; b0 += block) {
     const std::size_t m = std::min(block, n - b0);
-#pragma omp simd
-    for (std::size_t i = 0; i < m; ++i) {
-      const Cube::Location l = Cube::locate(size, x[b0 + i], y[b0 + i], z[b0 + i]);
-      idx[i] = l.index, tx[i] = l.tx, ty[i] = l.ty;
-    }
+    Cube::locate_many(size, x + b0, y + b0, z + b0, m, idx, tx, ty);
     for (std::size_t i = 0; i < m; ++i) {
       const Cube::Location l{idx[i], tx[i], ty[i]};
       out[b0 + i] = static_cast<double>(Cube::blend_at(l, t, l.index, 1, static_cast<std::size_t>(size))) >= min_mask;

@@ -74,6 +74,18 @@ class CubeMap {
     return {static_cast<std::uint32_t>((face * n + j0) * n + i0), static_cast<float>(fx - i0),
             static_cast<float>(fy - j0)};
   }
+  /// locate() of m directions (x[i], y[i], z[i]) into arrays (index[i], tx[i], ty[i]), in a loop
+  /// that vectorises. Lookups of many directions locate here and load the texels in a scalar
+  /// loop: vectorised, GCC 12 gathers the texels, which on the AMD cores we measure on is
+  /// slower than scalar loads from cached lines (docs/PERFORMANCE.md).
+  static void locate_many(int n, const double* x, const double* y, const double* z, std::size_t m, std::uint32_t* index,
+                          float* tx, float* ty) {
+#pragma omp simd
+    for (std::size_t i = 0; i < m; ++i) {
+      const Location l = locate(n, x[i], y[i], z[i]);
+      index[i] = l.index, tx[i] = l.tx, ty[i] = l.ty;
+    }
+  }
   /// The bilinear blend sample() applies to the texels at `l`.
   static T blend(const Location& l, const T& a00, const T& a10, const T& a01, const T& a11) {
     return (a00 * (1.0f - l.tx) + a10 * l.tx) * (1.0f - l.ty) + (a01 * (1.0f - l.tx) + a11 * l.tx) * l.ty;

@@ -15,11 +15,10 @@ earth::Vec3 WindField::at(const earth::Vec3& p) const {
 
 namespace {
 // The bilinear blends of a vec3 cube map's texels (t: its components, flat; row: floats per
-// texel row) at the locations (idx[i], tx[i], ty[i]), i < m. The loads are scalar on purpose:
-// left to itself GCC 12 vectorises this loop with gathers, which on the AMD Zen 3/4 cores we
-// measure on are slower than scalar loads from cached lines (the displacement maps, ~1 MiB,
-// are read coherently along image rows): the whole lookup took ~5 % more of a GEO frame
-// (docs/PERFORMANCE.md). noinline keeps the attribute in force.
+// texel row) at the locations (idx[i], tx[i], ty[i]), i < m. The loads are scalar on purpose
+// (see CubeMap::locate_many): left to itself GCC 12 vectorises this loop with gathers, and
+// the lookup took ~3-6 % more of a GEO frame (the displacement maps, ~1 MiB, are read
+// coherently along image rows). noinline keeps the attribute in force.
 [[gnu::noinline, gnu::optimize("no-tree-vectorize")]] void blend_vec3(const float* t, std::size_t row,
                                                                       const std::uint32_t* idx, const float* tx,
                                                                       const float* ty, std::size_t m, float* bx,
@@ -50,11 +49,7 @@ void DisplacementMap::upwind(const double* x, const double* y, const double* z, 
   alignas(64) float tx[block], ty[block], bx[block], by[block], bz[block];
   for (std::size_t b0 = 0; b0 < n; b0 += block) {
     const std::size_t m = std::min(block, n - b0);
-#pragma omp simd
-    for (std::size_t i = 0; i < m; ++i) {
-      const Cube::Location l = Cube::locate(size, x[b0 + i], y[b0 + i], z[b0 + i]);
-      idx[i] = l.index, tx[i] = l.tx, ty[i] = l.ty;
-    }
+    Cube::locate_many(size, x + b0, y + b0, z + b0, m, idx, tx, ty);
     blend_vec3(t, row, idx, tx, ty, m, bx, by, bz);
 #pragma omp simd
     for (std::size_t i = 0; i < m; ++i) {
