@@ -429,7 +429,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
         double lo, hi;
         rest(a, 0, lo, hi);
         const double v = w.v[a];
-        const bool below = v + hi<thr, above = v + lo> thr;  // side decided by the local bounds
+        // The side decided by the local bounds:
+        const bool below = (v + hi < thr), above = (v + lo > thr);
         out[c0 + w.id[a]] = v + (below ? hi : lo);
         w.sel[nsel] = static_cast<std::uint32_t>(a);
         nsel += !(below | above);
@@ -459,7 +460,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
           const double v = w.v[a] += weight * w.texel[b];
           double lo, hi;
           rest(a, t + 1, lo, hi);
-          const bool below = v + hi<thr, above = v + lo> thr;  // side decided: a bound with the same side
+          // Decided: out holds a bound on the same side of the threshold.
+          const bool below = (v + hi < thr), above = (v + lo > thr);
           out[c0 + w.id[a]] = v + (below ? hi : lo);
           w.sel[kept] = a;
           kept += !(below | above);
