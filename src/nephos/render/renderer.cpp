@@ -43,11 +43,23 @@ struct PlanckTable {
     const auto i = static_cast<std::size_t>(x);
     return radiance[i] + (x - static_cast<double>(i)) * (radiance[i + 1] - radiance[i]);
   }
-  double inverse(double l) const {  // linear between 0.01 K nodes: error < 1e-5 K
+  // Linear between 0.01 K nodes: error < 1e-5 K. The node interval [radiance[i],
+  // radiance[i + 1]) that holds l is found by secant jumps from `hint` (a neighbouring pixel's
+  // interval: images are smooth, so one or two jumps land), falling back on a binary search;
+  // the interval is unique, so the result does not depend on the hint.
+  double inverse(double l, std::size_t& hint) const {
     if (!(l > radiance.front())) return t_lo;
     if (l >= radiance.back()) return t_hi;
-    const auto it = std::upper_bound(radiance.begin(), radiance.end(), l);
-    const auto i = static_cast<std::size_t>(it - radiance.begin()) - 1;
+    const std::size_t last = radiance.size() - 2;
+    auto holds = [&](std::size_t i) { return radiance[i] <= l && l < radiance[i + 1]; };
+    std::size_t i = std::min(hint, last);
+    for (int jump = 0; jump < 3 && !holds(i); ++jump) {
+      const double x = static_cast<double>(i) + (l - radiance[i]) / (radiance[i + 1] - radiance[i]);
+      i = static_cast<std::size_t>(std::clamp(std::floor(x), 0.0, static_cast<double>(last)));
+    }
+    if (!holds(i))
+      i = static_cast<std::size_t>(std::upper_bound(radiance.begin(), radiance.end(), l) - radiance.begin()) - 1;
+    hint = i;
     return t_lo + dt * (static_cast<double>(i) + (l - radiance[i]) / (radiance[i + 1] - radiance[i]));
   }
 };
@@ -552,9 +564,13 @@ void add_brightness_temperatures(RenderImage& img, const BandTables& tables) {
     const std::vector<float>& radiance = img.radiance[b];
     std::vector<float>& bt = img.brightness_temperature[b];
     bt.resize(radiance.size());
-#pragma omp parallel for schedule(static)
-    for (std::size_t px = 0; px < radiance.size(); ++px)
-      bt[px] = static_cast<float>(tables.planck[b]->inverse(radiance[px]));
+#pragma omp parallel
+    {
+      std::size_t hint = 0;  // the last pixel's node interval (PlanckTable::inverse)
+#pragma omp for schedule(static)
+      for (std::size_t px = 0; px < radiance.size(); ++px)
+        bt[px] = static_cast<float>(tables.planck[b]->inverse(radiance[px], hint));
+    }
   }
 }
 
