@@ -339,21 +339,17 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
       const double inv_r = 1 / r;  // one division instead of three
       w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
-    }
-    maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
-#pragma omp simd
-    for (std::size_t j = 0; j < m; ++j) {
-      using Cube = CubeMap<float>;
-      const Cube::Location l = Cube::locate(mask_n, w.mx[j], w.my[j], w.mz[j]);
-      w.mask_index[j] = l.index, w.mask_tx[j] = l.tx, w.mask_ty[j] = l.ty;
-      // The barrier table, clamped to its range (points off it take barrier() below).
-      const double xc = std::min(std::max(w.r[j] - earth::radius_m - barrier_z0_, 0.0), bt_last - 1);
+      // Where the barrier table is read, clamped to its range (points off it take barrier()
+      // below).
+      const double xc = std::min(std::max(r - earth::radius_m - barrier_z0_, 0.0), bt_last - 1);
       const int i = static_cast<int>(xc);
       w.bar_index[j] = i, w.bar_t[j] = xc - i;
     }
-    // The mask's and the table's loads in this scalar loop, not in the vectorised one above:
-    // there GCC gathers them, slower on AMD cores than scalar loads from cached lines (the
-    // mask's cube map is read coherently along image rows; docs/PERFORMANCE.md).
+    maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
+    CubeMap<float>::locate_many(mask_n, w.mx, w.my, w.mz, m, w.mask_index, w.mask_tx, w.mask_ty);
+    // The mask's and the table's loads in this scalar loop, not in the vectorised ones above
+    // (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD cores than scalar
+    // loads from cached lines; the mask's cube map is read coherently along image rows).
     std::size_t nlive = 0;
     for (std::size_t j = 0; j < m; ++j) {
       using Cube = CubeMap<float>;

@@ -30,7 +30,7 @@ struct Path {
 // Band-mean Planck radiance as a table over temperature for a fast exact-enough inverse.
 struct PlanckTable {
   static constexpr double t_lo = 100, t_hi = 400, dt = 0.01;
-  static constexpr int size = 30001;  // (t_hi - t_lo) / dt + 1 nodes
+  static constexpr int size = static_cast<int>((t_hi - t_lo) / dt + 0.5) + 1;  // nodes: 30 001
   std::vector<double> radiance;
   explicit PlanckTable(const optics::Band& b) : radiance(size) {
     // 30 001 band integrals of 32 Planck evaluations each: ~0.1 s on one core, so built in
