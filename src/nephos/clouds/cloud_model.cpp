@@ -302,8 +302,9 @@ struct EvalWork {
   alignas(64) double ux[eval_chunk], uy[eval_chunk], uz[eval_chunk];
   std::array<Footprints, 3> f;
   alignas(64) double lo[3][eval_chunk], hi[3][eval_chunk];
-  std::array<std::uint32_t, eval_chunk> sel;  // compacted positions still undecided
-  alignas(64) float texel[eval_chunk];        // the current term's samples, in sel order
+  alignas(64) std::uint16_t words[eval_chunk];  // the current term's packed block bounds
+  std::array<std::uint32_t, eval_chunk> sel;    // compacted positions still undecided
+  alignas(64) float texel[eval_chunk];          // the current term's samples, in sel order
 };
 
 }  // namespace
@@ -400,9 +401,10 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       Footprints& f = w.f[t];
       if (early_out) {  // value() adds every term: no bounds needed
         const double weight = term.weight;
+        for (std::size_t a = 0; a < nlive; ++a) w.words[a] = tex.block_word(f.block[a]);
 #pragma omp simd
         for (std::size_t a = 0; a < nlive; ++a) {
-          const noise::Texture3D::Bounds b = tex.block_bounds(f.block[a]);
+          const noise::Texture3D::Bounds b = noise::Texture3D::bounds_from(w.words[a]);
           const double wl = weight * b.lo, wh = weight * b.hi;
           w.lo[t][a] = std::min(wl, wh);
           w.hi[t][a] = std::max(wl, wh);

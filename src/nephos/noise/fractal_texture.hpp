@@ -12,6 +12,9 @@
 #include <cstdint>
 #include <cstring>
 #include <vector>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
 #include "nephos/core/huge_page_allocator.hpp"
 
@@ -98,9 +101,15 @@ class Texture3D {
     // words (AVX2 has no 16-bit gather; with a 2-byte load GCC left the loop scalar).
     std::uint32_t word;
     std::memcpy(&word, block_bounds_.data() + block, sizeof word);
-    const unsigned b = word & 0xffffu;
-    return {static_cast<float>(b & 0xffu) * (1.0f / texel_max) - 1e-6f,
-            static_cast<float>(b >> 8) * (1.0f / texel_max) + 1e-6f};
+    return bounds_from(word & 0xffffu);
+  }
+  /// The packed bounds of block `block` (min | max << 8): a scalar load, for loops that read the
+  /// table apart from the vectorised arithmetic (bounds_from()).
+  std::uint16_t block_word(std::uint32_t block) const { return block_bounds_[block]; }
+  /// The bounds a packed word holds.
+  static Bounds bounds_from(unsigned word) {
+    return {static_cast<float>(word & 0xffu) * (1.0f / texel_max) - 1e-6f,
+            static_cast<float>(word >> 8) * (1.0f / texel_max) + 1e-6f};
   }
   /// Starts loading block_bounds(block)'s cache line.
   void prefetch_bounds(std::uint32_t block) const { __builtin_prefetch(block_bounds_.data() + block); }
@@ -118,6 +127,28 @@ class Texture3D {
   /// Trilinear value at footprint `f`, in [0, 1].
   float sample(const Footprint& f) const {
     const Texel* d = data_.data();
+#if defined(__AVX2__) && defined(__FMA__)
+    // The eight voxels in one vector (x0 in lanes 0-3, x1 in 4-7; rows y0z0, y1z0, y0z1, y1z1)
+    // and the interpolation four, two, then one lane at a time: the scalar form's arithmetic,
+    // fused the same way (bit-identical), in a third of its instructions (one conversion
+    // instead of eight).
+    const std::uint32_t r0 = f.y0 + f.z0, r1 = f.y1 + f.z0, r2 = f.y0 + f.z1, r3 = f.y1 + f.z1;
+    __m128i v = _mm_cvtsi32_si128(d[r0 + f.x0]);
+    v = _mm_insert_epi8(v, d[r1 + f.x0], 1);
+    v = _mm_insert_epi8(v, d[r2 + f.x0], 2);
+    v = _mm_insert_epi8(v, d[r3 + f.x0], 3);
+    v = _mm_insert_epi8(v, d[r0 + f.x1], 4);
+    v = _mm_insert_epi8(v, d[r1 + f.x1], 5);
+    v = _mm_insert_epi8(v, d[r2 + f.x1], 6);
+    v = _mm_insert_epi8(v, d[r3 + f.x1], 7);
+    const __m256 ab = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
+    const __m128 a = _mm256_castps256_ps128(ab), b = _mm256_extractf128_ps(ab, 1);
+    const __m128 c = _mm_fmadd_ps(_mm_sub_ps(b, a), _mm_set1_ps(f.tx), a);  // c00 c10 c01 c11
+    const __m128 lo = _mm_shuffle_ps(c, c, _MM_SHUFFLE(2, 2, 2, 0)), hi = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 3, 1));
+    const __m128 c01 = _mm_fmadd_ps(_mm_sub_ps(hi, lo), _mm_set1_ps(f.ty), lo);  // c0, c1
+    const float c0 = _mm_cvtss_f32(c01), c1 = _mm_cvtss_f32(_mm_movehdup_ps(c01));
+    return std::fma(c1 - c0, f.tz, c0) * (1.0f / texel_max);
+#else
     auto row = [&](std::uint32_t yz) {
       const float a = static_cast<float>(d[yz + f.x0]), b = static_cast<float>(d[yz + f.x1]);
       return a + f.tx * (b - a);
@@ -125,6 +156,7 @@ class Texture3D {
     const float c00 = row(f.y0 + f.z0), c10 = row(f.y1 + f.z0), c01 = row(f.y0 + f.z1), c11 = row(f.y1 + f.z1);
     const float c0 = c00 + f.ty * (c10 - c00), c1 = c01 + f.ty * (c11 - c01);
     return (c0 + f.tz * (c1 - c0)) * (1.0f / texel_max);
+#endif
   }
   /// sample(f) and its gradient in tile units (d/du, d/dv, d/dw of the trilinear interpolant,
   /// 1.0 = one tile), from the same eight voxels: the derivative along each axis is the

@@ -91,6 +91,28 @@ TEST(Texture, TrilinearSamplingHitsVoxelsAndWraps) {
   EXPECT_NEAR(t.sample(15.5f / 16, 0, 0), 0.5f * (t.voxel(15, 0, 0) + t.voxel(0, 0, 0)), 1e-6);
 }
 
+TEST(Texture, TrilinearSampleIsTheEightVoxelBlend) {
+  // Anywhere in the tile (the wrap included), sample() is the trilinear blend of its eight
+  // voxels, computed here in double from voxel(): each voxel's weight is the product of (1 - f)
+  // or f per axis. Tolerance 1e-6: float rounding of seven interpolations of values in [0, 1]
+  // (~6e-8 each), well below one quantisation step (1/255 = 4e-3).
+  const Texture3D t = bake(perlin_spec, 5, 16);
+  for (std::uint64_t s = 0; s < 200; ++s) {
+    const float u = static_cast<float>(uniform01(7, s, 0, 0)), v = static_cast<float>(uniform01(7, s, 1, 0)),
+                w = static_cast<float>(uniform01(7, s, 2, 0));
+    const float x = u * 16, y = v * 16, z = w * 16;
+    const int i = static_cast<int>(x), j = static_cast<int>(y), k = static_cast<int>(z);
+    const double fx = x - static_cast<float>(i), fy = y - static_cast<float>(j), fz = z - static_cast<float>(k);
+    double expected = 0;
+    for (int c = 0; c < 8; ++c) {
+      const int di = c & 1, dj = (c >> 1) & 1, dk = c >> 2;
+      expected += (di ? fx : 1 - fx) * (dj ? fy : 1 - fy) * (dk ? fz : 1 - fz) *
+                  t.voxel((i + di) % 16, (j + dj) % 16, (k + dk) % 16);
+    }
+    EXPECT_NEAR(t.sample(u, v, w), expected, 1e-6) << "at (" << u << ", " << v << ", " << w << ")";
+  }
+}
+
 TEST(Texture, SampleGradientIsTheTrilinearInterpolantsDerivative) {
   // Inside a voxel the trilinear interpolant is linear along each axis, so a central
   // difference that stays in the voxel is its exact derivative (up to float rounding: the
