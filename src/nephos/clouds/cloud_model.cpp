@@ -302,9 +302,9 @@ struct EvalWork {
   alignas(64) double ux[eval_chunk], uy[eval_chunk], uz[eval_chunk];
   std::array<Footprints, 3> f;
   alignas(64) double lo[3][eval_chunk], hi[3][eval_chunk];
-  alignas(64) std::uint16_t words[eval_chunk];  // the current term's packed block bounds
-  std::array<std::uint32_t, eval_chunk> sel;    // compacted positions still undecided
-  alignas(64) float texel[eval_chunk];          // the current term's samples, in sel order
+  alignas(64) std::uint16_t words[eval_chunk];          // the current term's packed block bounds
+  std::array<std::uint32_t, eval_chunk> sel, sel_next;  // compacted positions still undecided
+  alignas(64) float texel[eval_chunk];                  // the current term's samples, in sel order
 };
 
 }  // namespace
@@ -436,7 +436,11 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
     } else {
       for (std::size_t a = 0; a < nlive; ++a) w.sel[nsel++] = static_cast<std::uint32_t>(a);
     }
-    // Stage 3.
+    // Stage 3. The undecided points are compacted into a second array, not in place: in place,
+    // the loads of sel[b + 1] and on waited on the store to sel[kept], whose address depends
+    // on the previous verdict (~10 % of stage 3, docs/PERFORMANCE.md).
+    std::uint32_t* sel = w.sel.data();
+    std::uint32_t* sel_next = w.sel_next.data();
     for (std::size_t t = 0; t < nt; ++t) {
       const int i = terms[t];
       const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
@@ -444,33 +448,34 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       // The fetches first, in a loop with no branch on their values, so that a mispredicted
       // decision cannot squash the younger fetches in flight (the misses overlap).
       const Footprints& f = w.f[t];
-      for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[w.sel[b]]);
-      for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[w.sel[b]]);
+      for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[sel[b]]);
+      for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[sel[b]]);
       std::size_t kept = 0;
       if (t + 1 == nt) {  // every term added: exact
         for (std::size_t b = 0; b < nsel; ++b) {
-          const std::uint32_t a = w.sel[b];
+          const std::uint32_t a = sel[b];
           out[c0 + w.id[a]] = w.v[a] += weight * w.texel[b];
         }
       } else if (early_out) {  // branch-free, as the selection above
         for (std::size_t b = 0; b < nsel; ++b) {
-          const std::uint32_t a = w.sel[b];
+          const std::uint32_t a = sel[b];
           const double v = w.v[a] += weight * w.texel[b];
           double lo, hi;
           rest(a, t + 1, lo, hi);
           // Decided: out holds a bound on the same side of the threshold.
           const bool below = (v + hi < thr), above = (v + lo > thr);
           out[c0 + w.id[a]] = v + (below ? hi : lo);
-          w.sel[kept] = a;
+          sel_next[kept] = a;
           kept += !(below | above);
         }
       } else {
-        for (std::size_t b = 0; b < nsel; ++b) w.v[w.sel[b]] += weight * w.texel[b];
+        for (std::size_t b = 0; b < nsel; ++b) w.v[sel[b]] += weight * w.texel[b];
         kept = nsel;
       }
+      if (early_out && t + 1 < nt) std::swap(sel, sel_next);
       nsel = kept;
     }
-    for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[w.sel[b]]] = w.v[w.sel[b]];  // no terms at all
+    for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[sel[b]]] = w.v[sel[b]];  // no terms at all
   }
 }
 
