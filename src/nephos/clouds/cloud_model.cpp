@@ -334,7 +334,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
   for (std::size_t c0 = 0; c0 < n; c0 += eval_chunk) {
     const std::size_t m = std::min(eval_chunk, n - c0);
     // Stage 1.
-#pragma omp simd
+    int off_table = 0;  // points off the barrier table (none on a ray through the shell)
+#pragma omp simd reduction(+ : off_table)
     for (std::size_t j = 0; j < m; ++j) {
       const earth::Vec3& q = p[c0 + j];
       const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
@@ -342,35 +343,44 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
       w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
       // Where the barrier table is read, clamped to its range (points off it take barrier()
       // below).
-      const double xc = std::min(std::max(r - earth::radius_m - barrier_z0_, 0.0), bt_last - 1);
+      const double xb = r - earth::radius_m - barrier_z0_;
+      const double xc = std::min(std::max(xb, 0.0), bt_last - 1);
       const int i = static_cast<int>(xc);
       w.bar_index[j] = i, w.bar_t[j] = xc - i;
+      off_table += !((xb >= 0) & (xb <= bt_last - 1));
     }
     maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
     CubeMap<float>::locate_many(mask_n, w.mx, w.my, w.mz, m, w.mask_index, w.mask_tx, w.mask_ty);
     // The mask's and the table's loads in this scalar loop, not in the vectorised ones above
     // (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD cores than scalar
     // loads from cached lines; the mask's cube map is read coherently along image rows).
-    std::size_t nlive = 0;
-    for (std::size_t j = 0; j < m; ++j) {
-      using Cube = CubeMap<float>;
-      const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
-      const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
-      const int i = w.bar_index[j];
-      const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
-      const double bar = xb >= 0 && xb <= bt_last - 1 ? bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]) : barrier(alt);
-      const double base = bias_ + mask_weight_ * mask - bar;
-      if (mask < p_.min_mask) {
-        out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
-      } else if (base + fractal_max_ < thr) {
-        out[c0 + j] = base + fractal_max_;  // cannot reach the level set
-      } else {
-        w.id[nlive] = static_cast<std::uint32_t>(j);
-        w.lx[nlive] = w.x[j], w.ly[nlive] = w.y[j], w.lz[nlive] = w.z[j], w.lr[nlive] = w.r[j];
-        w.v[nlive] = base;
-        ++nlive;
+    // Two copies of the loop: the one without barrier()'s call (the chunk is on the table, as
+    // every chunk of a march is) keeps its pointers and constants in registers.
+    auto stage1 = [&]<bool AnyOff>() {
+      std::size_t live = 0;
+      for (std::size_t j = 0; j < m; ++j) {
+        using Cube = CubeMap<float>;
+        const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
+        const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
+        const int i = w.bar_index[j];
+        const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
+        const double table = bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]);
+        const double bar = !AnyOff || (xb >= 0 && xb <= bt_last - 1) ? table : barrier(alt);
+        const double base = bias_ + mask_weight_ * mask - bar;
+        if (mask < p_.min_mask) {
+          out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
+        } else if (base + fractal_max_ < thr) {
+          out[c0 + j] = base + fractal_max_;  // cannot reach the level set
+        } else {
+          w.id[live] = static_cast<std::uint32_t>(j);
+          w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
+          w.v[live] = base;
+          ++live;
+        }
       }
-    }
+      return live;
+    };
+    const std::size_t nlive = off_table ? stage1.template operator()<true>() : stage1.template operator()<false>();
     // Stage 2: footprints of every term (texture coordinates in tiles, reduced in double
     // before the float lookup), then their bounds.
     for (std::size_t t = 0; t < nt; ++t) {
