@@ -130,8 +130,8 @@ class Texture3D {
 #if defined(__AVX2__) && defined(__FMA__)
     // The eight voxels in one vector (x0 in lanes 0-3, x1 in 4-7; rows y0z0, y1z0, y0z1, y1z1)
     // and the interpolation four, two, then one lane at a time: the scalar form's arithmetic,
-    // fused the same way (bit-identical), in a third of its instructions (one conversion
-    // instead of eight).
+    // fused the same way (bit-identical), in fewer instructions (one conversion instead of
+    // eight; ~8 % of the renderer's fetch stage, docs/PERFORMANCE.md).
     const std::uint32_t r0 = f.y0 + f.z0, r1 = f.y1 + f.z0, r2 = f.y0 + f.z1, r3 = f.y1 + f.z1;
     __m128i v = _mm_cvtsi32_si128(d[r0 + f.x0]);
     v = _mm_insert_epi8(v, d[r1 + f.x0], 1);
