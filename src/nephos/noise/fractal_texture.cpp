@@ -245,7 +245,7 @@ void Texture3D::update_bounds() {
   block_shift_ = 0;
   while ((n_ >> block_shift_) > bounds_grid) ++block_shift_;
   const int b = 1 << block_shift_, nb = n_ / b;
-  block_bounds_.assign(static_cast<std::size_t>(nb) * nb * nb + 1, {});  // + 1: see block_bounds()
+  block_bounds_.assign(static_cast<std::size_t>(nb) * nb * nb, {});
   const unsigned mask = static_cast<unsigned>(n_ - 1);
 #pragma omp parallel for collapse(2) schedule(static)
   for (int bk = 0; bk < nb; ++bk)
