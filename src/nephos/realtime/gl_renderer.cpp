@@ -310,12 +310,13 @@ struct SpriteRenderer::Impl {
   int front = 0;
   ImpostorRing ring;
   glm::dvec3 back_centre{0.0};
-  int next_sector = -1;                                // sector of the back set to render this frame; -1: not building
-  int crossfade = -1;                                  // frame of the crossfade; -1: none
-  std::vector<SpriteKey> captured[2];                  // sprites in each set, sorted
-  std::array<bool, 8> sector_empty[2] = {};            // nothing was rendered into the sector
-  double tan_low[2] = {-1, -1}, tan_high[2] = {1, 1};  // vertical extent of each set's impostors
-  std::uint64_t generation = 0;                        // bumps when the sprite set changes
+  int next_sector = -1;                      // sector of the back set to render this frame; -1: not building
+  int crossfade = -1;                        // frame of the crossfade; -1: none
+  std::vector<SpriteKey> captured[2];        // sprites in each set, sorted
+  std::array<bool, 8> sector_empty[2] = {};  // nothing was rendered into the sector
+  // Vertical extent of each impostor (set, sector): the tangents of its frustum's bottom and top.
+  std::array<double, 8> tan_low[2] = {}, tan_high[2] = {};
+  std::uint64_t generation = 0;  // bumps when the sprite set changes
 };
 
 namespace {
@@ -372,6 +373,17 @@ double sprite_layer(const SpriteCloud& c, const Sprite& s) {
 // Vertical half-angle of an impostor: clouds up to max_vertical_offset above or below, seen
 // from the ring's radius.
 double impostor_half_height(const ImpostorRing& ring) { return std::atan(ring.max_vertical_offset_m / ring.radius_m); }
+
+// Whether a sphere of radius r [m] at p may show in impostor sector `sector` (0 = east, CCW) of
+// a ring centred at `centre`: its horizontal direction within the sector's 45 degrees widened by
+// the sphere's angular radius.
+bool overlaps_sector(const glm::dvec3& p, double r, const glm::dvec3& centre, int sector) {
+  const glm::dvec2 d{p.x - centre.x, p.y - centre.y};
+  const double dist = glm::length(d);
+  double off = std::fmod(std::abs(std::atan2(d.y, d.x) - sector * M_PI / 4), 2 * M_PI);
+  off = std::min(off, 2 * M_PI - off);  // angle to the sector's axis
+  return off <= M_PI / 8 + std::asin(std::min(1.0, r / std::max(dist, 1.0)));
+}
 
 }  // namespace
 
@@ -650,8 +662,8 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   t.fbo = m.imp_fbo;
   t.width = t.height = impostor_size;
   t.tan_half_x = std::tan(M_PI / 8);
-  t.tan_y_low = m.tan_low[set];
-  t.tan_y_high = m.tan_high[set];
+  t.tan_y_low = m.tan_low[set][static_cast<std::size_t>(sector)];
+  t.tan_y_high = m.tan_high[set][static_cast<std::size_t>(sector)];
   t.clear = {0, 0, 0, 0};
   t.sun = sun.direction;
   glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
@@ -660,18 +672,11 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   std::vector<glm::dvec3> pos;
   std::vector<std::pair<const SpriteCloud*, const Sprite*>> items;
   std::vector<char> held;
-  auto overlaps = [&](const glm::dvec3& p, double r) {
-    const glm::dvec2 d{p.x - centre.x, p.y - centre.y};
-    const double dist = glm::length(d);
-    double off = std::fmod(std::abs(std::atan2(d.y, d.x) - a), 2 * M_PI);
-    off = std::min(off, 2 * M_PI - off);  // angle to the sector's axis
-    return off <= M_PI / 8 + std::asin(std::min(1.0, r / std::max(dist, 1.0)));
-  };
   for (const auto& c : field.clouds()) {
-    if (!captured_sprites(m.captured[set], c, held) || !overlaps(c.centre, c.radius_m)) continue;
+    if (!captured_sprites(m.captured[set], c, held) || !overlaps_sector(c.centre, c.radius_m, centre, sector)) continue;
     for (std::size_t k = 0; k < c.sprites.size(); ++k) {
       const glm::dvec3 p = c.centre + glm::dvec3(c.sprites[k].offset);
-      if (!held[k] || !overlaps(p, sprite_radius(c.sprites[k]))) continue;
+      if (!held[k] || !overlaps_sector(p, sprite_radius(c.sprites[k]), centre, sector)) continue;
       pos.push_back(p);
       items.push_back({&c, &c.sprites[k]});
     }
@@ -699,11 +704,14 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // only the sections beyond the radius into impostors"; nephos decides per sprite, so a cloud
   // across the ring has its far sprites in the impostor and its near ones drawn as sprites (in
   // front, being nearer). MSFS moves the impostors up or down to where the clouds are; nephos
-  // fits an off-centre frustum to them (within the +-10,000 ft rule's angle), so their texels
-  // and fill cover clouds, not sky.
+  // fits an off-centre frustum to them per sector (within the +-10,000 ft rule's angle), so
+  // their texels and fill cover clouds, not sky. In an impostor a sprite is a billboard
+  // parallel to the image plane, at its centre's depth along the sector's axis, so the tangents
+  // of its bottom and top edges are exact: (z -+ size / 2) / depth.
   auto capture = [&](int set, const glm::dvec3& centre) {
     std::vector<SpriteKey> keys;
-    double lo = 1e9, hi = -1e9;
+    std::array<double, 8> lo, hi;
+    lo.fill(1e9), hi.fill(-1e9);
     for (const auto& c : field.clouds()) {  // forming or dissipating clouds stay sprites
       if (c.fading() || c.opacity != 1) continue;
       for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
@@ -712,16 +720,24 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
         const double r = sprite_radius(sp);
         if (!m.ring.in_impostor(p, r, centre)) continue;
         keys.push_back({cloud_key(c), k});
-        const double dh = glm::length(glm::dvec2(p - centre)) - r;  // > ring radius
-        lo = std::min(lo, (p.z - 0.5 * sp.size_m - centre.z) / dh);
-        hi = std::max(hi, (p.z + 0.5 * sp.size_m - centre.z) / dh);
+        for (std::size_t s = 0; s < 8; ++s) {
+          const int sector = static_cast<int>(s);
+          if (!overlaps_sector(p, r, centre, sector)) continue;
+          const double a = sector * M_PI / 4;
+          const double depth = (p.x - centre.x) * std::cos(a) + (p.y - centre.y) * std::sin(a);  // > 0.9 radius
+          lo[s] = std::min(lo[s], (p.z - 0.5 * sp.size_m - centre.z) / depth);
+          hi[s] = std::max(hi[s], (p.z + 0.5 * sp.size_m - centre.z) / depth);
+        }
       }
     }
     std::sort(keys.begin(), keys.end());
     m.captured[set] = std::move(keys);
+    // A margin of 0.02 (a few texels) keeps the bilinear footprint of the edge texels inside.
     const double limit = std::tan(impostor_half_height(m.ring));
-    m.tan_low[set] = hi > lo ? std::max(-limit, lo - 0.02) : -limit;
-    m.tan_high[set] = hi > lo ? std::min(limit, hi + 0.02) : limit;
+    for (std::size_t s = 0; s < 8; ++s) {
+      m.tan_low[set][s] = hi[s] > lo[s] ? std::max(-limit, lo[s] - 0.02) : -limit;
+      m.tan_high[set][s] = hi[s] > lo[s] ? std::min(limit, hi[s] + 0.02) : limit;
+    }
   };
   // ---- Impostor ring upkeep: at most one sector rendered per frame once the ring exists.
   double back_weight = 0;  // crossfade weight of the back set
@@ -772,10 +788,11 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       if (weight <= 0) continue;
       const int set = which == 0 ? m.front : back;
       const glm::dvec3 centre = which == 0 ? m.ring.centre : m.back_centre;
-      const double aspect = (m.tan_high[set] - m.tan_low[set]) / (2 * std::tan(M_PI / 8));
-      const double lift = 0.5 * (m.tan_high[set] + m.tan_low[set]) * m.ring.radius_m;
       for (int k = 0; k < 8; ++k) {
-        if (m.sector_empty[set][static_cast<std::size_t>(k)]) continue;  // no fill for empty sky
+        const auto s = static_cast<std::size_t>(k);
+        if (m.sector_empty[set][s]) continue;  // no fill for empty sky
+        const double aspect = (m.tan_high[set][s] - m.tan_low[set][s]) / (2 * std::tan(M_PI / 8));
+        const double lift = 0.5 * (m.tan_high[set][s] + m.tan_low[set][s]) * m.ring.radius_m;
         const double a = k * M_PI / 4;
         const glm::dvec3 d{std::cos(a), std::sin(a), 0};
         push_instance(m.buffer, centre + air + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
