@@ -472,7 +472,7 @@ TEST(SpriteRendererGl, FromTheRingCentreTheImpostorsShowWhatTheSpritesShow) {
   // and the premultiplied impostor texels are 8-bit. Measured at 640 x 360 for eight headings:
   // at most 195 of 921 600 channels more than 32 levels apart; allowed: 1 in 2000 (a frustum
   // that cuts sprites off moves a distant cloud's whole edge by its contrast with the sky, up to
-  // ~130 levels: with 0.05 taken off each sector's top, more than that fail).
+  // ~130 levels: with each sector's top 0.05 in tangent below its highest sprite's, it fails).
   const glm::dvec3 eye{0, 0, 2400};
   CloudField field(recipe_from_code(parse_weather_code("d400")), 9, eye);
   field.advance_time(0);  // the clouds formed (forming clouds stay out of the ring)
