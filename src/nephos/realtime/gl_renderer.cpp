@@ -374,15 +374,24 @@ double sprite_layer(const SpriteCloud& c, const Sprite& s) {
 // from the ring's radius.
 double impostor_half_height(const ImpostorRing& ring) { return std::atan(ring.max_vertical_offset_m / ring.radius_m); }
 
-// Whether a sphere of radius r [m] at p may show in impostor sector `sector` (0 = east, CCW) of
-// a ring centred at `centre`: its horizontal direction within the sector's 45 degrees widened by
-// the sphere's angular radius.
-bool overlaps_sector(const glm::dvec3& p, double r, const glm::dvec3& centre, int sector) {
+// A sphere of radius r [m] at p seen from a ring centred at `centre`: its horizontal direction
+// and angular radius [rad].
+struct Bearing {
+  double angle, reach;
+};
+Bearing bearing(const glm::dvec3& p, double r, const glm::dvec3& centre) {
   const glm::dvec2 d{p.x - centre.x, p.y - centre.y};
-  const double dist = glm::length(d);
-  double off = std::fmod(std::abs(std::atan2(d.y, d.x) - sector * M_PI / 4), 2 * M_PI);
+  return {std::atan2(d.y, d.x), std::asin(std::min(1.0, r / std::max(glm::length(d), 1.0)))};
+}
+// Whether the sphere may show in impostor sector `sector` (0 = east, CCW): its direction within
+// the sector's 45 degrees widened by its angular radius.
+bool overlaps_sector(const Bearing& b, int sector) {
+  double off = std::fmod(std::abs(b.angle - sector * M_PI / 4), 2 * M_PI);
   off = std::min(off, 2 * M_PI - off);  // angle to the sector's axis
-  return off <= M_PI / 8 + std::asin(std::min(1.0, r / std::max(dist, 1.0)));
+  return off <= M_PI / 8 + b.reach;
+}
+bool overlaps_sector(const glm::dvec3& p, double r, const glm::dvec3& centre, int sector) {
+  return overlaps_sector(bearing(p, r, centre), sector);
 }
 
 }  // namespace
@@ -720,9 +729,10 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
         const double r = sprite_radius(sp);
         if (!m.ring.in_impostor(p, r, centre)) continue;
         keys.push_back({cloud_key(c), k});
+        const Bearing b = bearing(p, r, centre);  // once, not per sector
         for (std::size_t s = 0; s < 8; ++s) {
           const int sector = static_cast<int>(s);
-          if (!overlaps_sector(p, r, centre, sector)) continue;
+          if (!overlaps_sector(b, sector)) continue;
           const double a = sector * M_PI / 4;
           const double depth = (p.x - centre.x) * std::cos(a) + (p.y - centre.y) * std::sin(a);  // > 0.9 radius
           lo[s] = std::min(lo[s], (p.z - 0.5 * sp.size_m - centre.z) / depth);
