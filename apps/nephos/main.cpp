@@ -221,14 +221,16 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     dict.check_unused();
   }
   if (o.texture != 0) cp.texture_size = o.texture;
-  // The textures: three N^3 voxel grids of one byte each.
+  // The textures: three N^3 voxel grids of one byte each, in overlapping bricks (~2.37 N^3
+  // bytes each), and while one is baked its N^3 float values.
   const int tex = cp.texture_size;
   using clouds::CloudModelParams;
   if (tex < CloudModelParams::min_texture_size || tex > CloudModelParams::max_texture_size || (tex & (tex - 1)) != 0)
     throw ValueError(fmt::format("texture size must be a power of two from {} to {}, got {}",
                                  CloudModelParams::min_texture_size, CloudModelParams::max_texture_size, tex),
                      {.key = "--texture"});
-  require_memory(3.0 * std::pow(tex, 3), "--texture", fmt::format("three {}^3 fractal textures", tex));
+  require_memory(3.0 * static_cast<double>(noise::Texture3D::bytes_for(tex)) + 4.0 * std::pow(tex, 3), "--texture",
+                 fmt::format("three {}^3 fractal textures", tex));
   if (displace_hours)
     for (auto& t : cp.types)
       for (auto& f : t.fractals) f.displace_hours = *displace_hours;

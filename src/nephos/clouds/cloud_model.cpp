@@ -273,16 +273,12 @@ constexpr std::size_t eval_chunk = 128;  // points evaluated together (working s
 
 // Texture footprints of a chunk of points, one array per field (noise::Texture3D::Footprint).
 struct Footprints {
-  alignas(64) std::uint32_t x0[eval_chunk], x1[eval_chunk], y0[eval_chunk], y1[eval_chunk];
-  alignas(64) std::uint32_t z0[eval_chunk], z1[eval_chunk], block[eval_chunk];
+  alignas(64) std::uint32_t corner[eval_chunk], block[eval_chunk];
   alignas(64) float tx[eval_chunk], ty[eval_chunk], tz[eval_chunk];
   void set(std::size_t a, const noise::Texture3D::Footprint& f) {
-    x0[a] = f.x0, x1[a] = f.x1, y0[a] = f.y0, y1[a] = f.y1, z0[a] = f.z0, z1[a] = f.z1, block[a] = f.block;
-    tx[a] = f.tx, ty[a] = f.ty, tz[a] = f.tz;
+    corner[a] = f.corner, block[a] = f.block, tx[a] = f.tx, ty[a] = f.ty, tz[a] = f.tz;
   }
-  noise::Texture3D::Footprint operator[](std::size_t a) const {
-    return {x0[a], x1[a], y0[a], y1[a], z0[a], z1[a], block[a], tx[a], ty[a], tz[a]};
-  }
+  noise::Texture3D::Footprint operator[](std::size_t a) const { return {corner[a], block[a], tx[a], ty[a], tz[a]}; }
 };
 
 // The working set of one chunk, as structure of arrays so that the geometric stages vectorise.

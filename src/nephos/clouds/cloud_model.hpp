@@ -65,7 +65,8 @@ struct CloudTypeParams {
 };
 
 struct CloudModelParams {
-  /// The texture sizes the model accepts (powers of two): three N^3 byte textures, 3 GiB at most.
+  /// The texture sizes the model accepts (powers of two): three textures of about 2.37 N^3 bytes
+  /// each (noise::Texture3D's bricks), 7.2 GiB at N = 1024.
   static constexpr int min_texture_size = 8, max_texture_size = 1024;
   /// The longest wind displacement or animation advance [h]: ten days, the length of a GFS
   /// forecast (the trajectory integration takes one step per displacement step).

@@ -242,6 +242,26 @@ void Texture3D::throw_bad_size(int n) {
 
 void Texture3D::update_bounds() {
   if (n_ < 4 || (n_ & (n_ - 1)) != 0) throw_bad_size(n_);  // a default-constructed texture
+  // The aprons: every slot of every brick that is not its voxel's own copy (the brick's fourth
+  // plane along an axis, or a voxel past n - 1 wrapped around) takes that copy's value.
+  {
+    const unsigned n = static_cast<unsigned>(n_), nb = nb_;
+#pragma omp parallel for schedule(static)
+    for (int bz = 0; bz < static_cast<int>(nb); ++bz)
+      for (unsigned by = 0; by < nb; ++by)
+        for (unsigned bx = 0; bx < nb; ++bx) {
+          Texel* brick = data_.data() + ((static_cast<std::size_t>(bz) * nb + by) * nb + bx) * 64;
+          for (unsigned lz = 0; lz < 4; ++lz)
+            for (unsigned ly = 0; ly < 4; ++ly)
+              for (unsigned lx = 0; lx < 4; ++lx) {
+                const unsigned x = (3 * bx + lx) % n, y = (3 * by + ly) % n,
+                               z = (3 * static_cast<unsigned>(bz) + lz) % n;
+                const std::size_t own = std::size_t{offset_x(x)} + offset_y(y) + offset_z(z);
+                Texel& slot = brick[lz * 16 + ly * 4 + lx];
+                if (&slot != data_.data() + own) slot = data_[own];  // own copies are only read
+              }
+        }
+  }
   block_shift_ = 0;
   while ((n_ >> block_shift_) > bounds_grid) ++block_shift_;
   const int b = 1 << block_shift_, nb = n_ / b;

@@ -2,7 +2,7 @@
 // Tileable 3D fractal textures (seed 000, section 2.1): Perlin gradient-noise fractals and an
 // inverted Worley (cellular) fractal, baked once per seed into an N^3 grid of 8-bit values in
 // [0, 1] and sampled with periodic trilinear interpolation. 8-bit storage quarters the memory
-// of float (three 256^3 textures: 48 MiB instead of 192) at a quantisation error of at most
+// of float (three 256^3 textures: 48 MiB of voxels instead of 192) at a quantisation error of at most
 // 0.5/255 = 0.002 per voxel (tested); in the cloud function, whose fractal weights sum to 1,
 // the error is at most 0.002, a shift of the cloud surface by 0.2 % of the fractal range.
 // Random lookups from a texture set that is mostly in the L3 cache made the renderer ~5 %
@@ -29,39 +29,46 @@ struct FractalSpec {
   bool invert = false;       ///< 1 - value (Worley: bright cell centres, dark borders)
 };
 
-/// A periodic N x N x N texture of values in [0, 1], stored as uint8 in 4 x 4 x 4 bricks
-/// (64 bytes: one cache line). A trilinear lookup reads (5/4)^3 = 1.95 cache lines on average
-/// instead of the 4 rows of a linear layout, which matters because at kilometre pixel spacing
-/// every lookup misses the caches.
+/// A periodic N x N x N texture of values in [0, 1], stored as uint8 in overlapping bricks of
+/// 4 x 4 x 4 voxels (64 bytes: one cache line): brick (bx, by, bz) holds voxels 3 bx .. 3 bx + 3
+/// along x (periodically), and likewise along y and z, so neighbouring bricks share a plane of
+/// voxels (an apron). Whatever the lookup point, the eight voxels of its trilinear footprint lie
+/// in one brick, so a lookup reads exactly one cache line, against 1.95 on average for disjoint
+/// 4^3 bricks and 4 rows of a linear layout: at kilometre pixel spacing every lookup misses the
+/// caches, and a GEO frame was 7-9 % faster (docs/PERFORMANCE.md). The price is memory:
+/// ceil(N/3)^3 bricks, about (4/3)^3 = 2.37 times N^3 bytes (39 MiB at 256^3, 4.9 MiB at 128^3).
 class Texture3D {
  public:
   using Texel = std::uint8_t;                 ///< storage type of a voxel
   static constexpr float texel_max = 255.0f;  ///< the stored value of 1.0
   static_assert(sizeof(Texel) == 1, "the block bounds pack a block's min and max texel in 16 bits");
   Texture3D() = default;
-  explicit Texture3D(int n) : n_(n), data_(static_cast<std::size_t>(n) * n * n) {
-    if (n < 4 || (n & (n - 1)) != 0) throw_bad_size(n);
-  }
+  explicit Texture3D(int n) : n_(checked_size(n)), nb_((static_cast<unsigned>(n) + 2) / 3), data_(bytes_for(n)) {}
   int size() const { return n_; }
+  /// Bytes of voxel storage (the bricks, aprons included).
   std::size_t bytes() const { return data_.size() * sizeof(Texel); }
-
-  /// Offset of voxel (i, j, k) in data(): the sum of one part per axis (see Footprint).
-  std::uint32_t offset_x(unsigned i) const { return (i >> 2) * 64u + (i & 3u); }
-  std::uint32_t offset_y(unsigned j) const { return (j >> 2) * 64u * (static_cast<unsigned>(n_) >> 2) + (j & 3u) * 4u; }
-  std::uint32_t offset_z(unsigned k) const {
-    const unsigned nb = static_cast<unsigned>(n_) >> 2;
-    return (k >> 2) * 64u * nb * nb + (k & 3u) * 16u;
+  /// bytes() of an n^3 texture: ceil(n/3)^3 bricks of 64 bytes.
+  static std::size_t bytes_for(int n) {
+    const std::size_t nb = (static_cast<std::size_t>(n) + 2) / 3;
+    return 64 * nb * nb * nb;
   }
+
+  /// Offset in data() of voxel (i, j, k)'s own copy (in brick (i/3, j/3, k/3); the apron of the
+  /// brick before holds another): the sum of one part per axis.
+  std::uint32_t offset_x(unsigned i) const { return (i / 3u) * 64u + i % 3u; }
+  std::uint32_t offset_y(unsigned j) const { return (j / 3u) * 64u * nb_ + (j % 3u) * 4u; }
+  std::uint32_t offset_z(unsigned k) const { return (k / 3u) * 64u * nb_ * nb_ + (k % 3u) * 16u; }
   std::size_t index(int i, int j, int k) const {
     return std::size_t{offset_x(static_cast<unsigned>(i))} + offset_y(static_cast<unsigned>(j)) +
            offset_z(static_cast<unsigned>(k));
   }
 
   /// The voxels and weights one trilinear lookup uses: computed once (in vectorised loops over
-  /// many points), then used for the block bounds and the sample.
+  /// many points), then used for the block bounds and the sample. Voxel (x0 + a, y0 + b, z0 + c)
+  /// of the footprint, a, b, c in {0, 1}, is at data()[corner + a + 4 b + 16 c], in one brick.
   struct Footprint {
-    std::uint32_t x0, x1, y0, y1, z0, z1;  ///< per-axis offsets of the two voxel planes (offset_x() ...)
-    std::uint32_t block;                   ///< index into the block bounds (see bounds())
+    std::uint32_t corner;  ///< offset of voxel (x0, y0, z0): index(x0, y0, z0)
+    std::uint32_t block;   ///< index into the block bounds (see bounds())
     float tx, ty, tz;
   };
   /// Footprint at texture coordinates (u, v, w) in tile units: 1.0 = one tile; any real value
@@ -71,13 +78,12 @@ class Texture3D {
     const float x = u * fn, y = v * fn, z = w * fn;
     const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
     const unsigned mask = static_cast<unsigned>(n_ - 1);  // n is a power of two
-    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask, x1 = (x0 + 1) & mask;
-    const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & mask, y1 = (y0 + 1) & mask;
-    const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & mask, z1 = (z0 + 1) & mask;
+    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask;
+    const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & mask;
+    const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & mask;
     const unsigned nb = static_cast<unsigned>(n_) >> block_shift_;
     const unsigned block = ((z0 >> block_shift_) * nb + (y0 >> block_shift_)) * nb + (x0 >> block_shift_);
-    return {offset_x(x0), offset_x(x1), offset_y(y0), offset_y(y1), offset_z(z0),
-            offset_z(z1), block,        x - fx,       y - fy,       z - fz};
+    return {offset_x(x0) + offset_y(y0) + offset_z(z0), block, x - fx, y - fy, z - fz};
   }
   /// Blocks per axis of the bounds grid: 64 (a 512 KiB table whatever the texture size; 4^3
   /// voxels per block at 256^3). Against 32 (8^3 voxels), the tighter bounds decide 24 % more
@@ -106,34 +112,30 @@ class Texture3D {
   }
   /// Starts loading block_bounds(block)'s cache line.
   void prefetch_bounds(std::uint32_t block) const { __builtin_prefetch(block_bounds_.data() + block); }
-  /// Recomputes the block bounds after data() was written (bake() does this).
+  /// Copies every voxel into the aprons of the bricks that share it, then recomputes the block
+  /// bounds: call after writing each voxel's own copy (data()[index(i, j, k)]; bake() does).
   void update_bounds();
-  /// Starts loading the cache lines of sample(f)'s two opposite corners: the one line that a
-  /// lookup inside a 4^3 brick reads, and, where the footprint crosses brick faces, the
-  /// farthest of the others (the rest load on demand). A pass of these ahead of a pass of
+  /// Starts loading the one cache line sample(f) reads. A pass of these ahead of a pass of
   /// sample() keeps more misses in flight than the sample loop alone, whose longer iterations
   /// fill the core's reorder window (measured on the Zen 3 VM: docs/PERFORMANCE.md).
-  void prefetch(const Footprint& f) const {
-    __builtin_prefetch(data_.data() + f.x0 + f.y0 + f.z0);
-    __builtin_prefetch(data_.data() + f.x1 + f.y1 + f.z1);
-  }
+  void prefetch(const Footprint& f) const { __builtin_prefetch(data_.data() + f.corner); }
   /// Trilinear value at footprint `f`, in [0, 1].
   float sample(const Footprint& f) const {
     const Texel* d = data_.data();
 #if defined(__AVX2__) && defined(__FMA__)
-    // The eight voxels in one vector (x0 in lanes 0-3, x1 in 4-7; rows y0z0, y1z0, y0z1, y1z1)
-    // and the interpolation four, two, then one lane at a time: the scalar form's arithmetic,
-    // fused the same way (bit-identical), in fewer instructions (one conversion instead of
-    // eight; ~8 % of the renderer's fetch stage, docs/PERFORMANCE.md).
-    const std::uint32_t r0 = f.y0 + f.z0, r1 = f.y1 + f.z0, r2 = f.y0 + f.z1, r3 = f.y1 + f.z1;
-    __m128i v = _mm_cvtsi32_si128(d[r0 + f.x0]);
-    v = _mm_insert_epi8(v, d[r1 + f.x0], 1);
-    v = _mm_insert_epi8(v, d[r2 + f.x0], 2);
-    v = _mm_insert_epi8(v, d[r3 + f.x0], 3);
-    v = _mm_insert_epi8(v, d[r0 + f.x1], 4);
-    v = _mm_insert_epi8(v, d[r1 + f.x1], 5);
-    v = _mm_insert_epi8(v, d[r2 + f.x1], 6);
-    v = _mm_insert_epi8(v, d[r3 + f.x1], 7);
+    // The eight voxels in one vector (x0 in lanes 0-3, x1 in 4-7; rows y0z0, y1z0, y0z1, y1z1):
+    // planes z0 and z0 + 1 of the brick (16 bytes each, the first at a multiple of 16 within the
+    // line) in one 32-byte load, one byte shuffle per 128-bit lane taking (y, x) at o, o + 1,
+    // o + 4, o + 5 of its plane, the lanes merged. Then the interpolation four, two, then one
+    // lane at a time with the scalar form's arithmetic, fused the same way (bit-identical), in
+    // fewer instructions (docs/PERFORMANCE.md).
+    const __m256i planes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d + (f.corner & ~15u)));
+    constexpr char z = -128;  // pshufb: a set high bit writes zero (o <= 10 keeps it set)
+    const __m256i pick = _mm256_add_epi8(_mm256_set1_epi8(static_cast<char>(f.corner & 15u)),
+                                         _mm256_setr_epi8(0, 4, z, z, 1, 5, z, z, z, z, z, z, z, z, z, z,  //
+                                                          z, z, 0, 4, z, z, 1, 5, z, z, z, z, z, z, z, z));
+    const __m256i picked = _mm256_shuffle_epi8(planes, pick);
+    const __m128i v = _mm_or_si128(_mm256_castsi256_si128(picked), _mm256_extracti128_si256(picked, 1));
     const __m256 ab = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
     const __m128 a = _mm256_castps256_ps128(ab), b = _mm256_extractf128_ps(ab, 1);
     const __m128 c = _mm_fmadd_ps(_mm_sub_ps(b, a), _mm_set1_ps(f.tx), a);  // c00 c10 c01 c11
@@ -143,10 +145,11 @@ class Texture3D {
     return std::fma(c1 - c0, f.tz, c0) * (1.0f / texel_max);
 #else
     auto row = [&](std::uint32_t yz) {
-      const float a = static_cast<float>(d[yz + f.x0]), b = static_cast<float>(d[yz + f.x1]);
+      const float a = static_cast<float>(d[yz]), b = static_cast<float>(d[yz + 1]);
       return a + f.tx * (b - a);
     };
-    const float c00 = row(f.y0 + f.z0), c10 = row(f.y1 + f.z0), c01 = row(f.y0 + f.z1), c11 = row(f.y1 + f.z1);
+    const std::uint32_t o = f.corner;
+    const float c00 = row(o), c10 = row(o + 4), c01 = row(o + 16), c11 = row(o + 20);
     const float c0 = c00 + f.ty * (c10 - c00), c1 = c01 + f.ty * (c11 - c01);
     return (c0 + f.tz * (c1 - c0)) * (1.0f / texel_max);
 #endif
@@ -163,10 +166,11 @@ class Texture3D {
       float value, dx;
     };
     auto row = [&](std::uint32_t yz) {
-      const float a = static_cast<float>(d[yz + f.x0]), b = static_cast<float>(d[yz + f.x1]);
+      const float a = static_cast<float>(d[yz]), b = static_cast<float>(d[yz + 1]);
       return Row{a + f.tx * (b - a), b - a};
     };
-    const Row r00 = row(f.y0 + f.z0), r10 = row(f.y1 + f.z0), r01 = row(f.y0 + f.z1), r11 = row(f.y1 + f.z1);
+    const std::uint32_t o = f.corner;
+    const Row r00 = row(o), r10 = row(o + 4), r01 = row(o + 16), r11 = row(o + 20);
     const float c0 = r00.value + f.ty * (r10.value - r00.value), c1 = r01.value + f.ty * (r11.value - r01.value);
     const float dx0 = r00.dx + f.ty * (r10.dx - r00.dx), dx1 = r01.dx + f.ty * (r11.dx - r01.dx);
     const float dy0 = r10.value - r00.value, dy1 = r11.value - r01.value;
@@ -178,13 +182,18 @@ class Texture3D {
   float sample(float u, float v, float w) const { return sample(footprint(u, v, w)); }
   /// Value of voxel (i, j, k) in [0, 1].
   float voxel(int i, int j, int k) const { return data_[index(i, j, k)] * (1.0f / texel_max); }
-  /// The voxels in brick order (index()).
+  /// The bricks (see the class comment); voxel (i, j, k)'s own copy at index(i, j, k).
   Texel* data() { return data_.data(); }
   const Texel* data() const { return data_.data(); }
 
  private:
   [[noreturn]] static void throw_bad_size(int n);
+  static int checked_size(int n) {
+    if (n < 4 || (n & (n - 1)) != 0) throw_bad_size(n);
+    return n;
+  }
   int n_ = 0;
+  unsigned nb_ = 0;                                                         // bricks per axis: ceil(n / 3)
   std::vector<Texel, HugePageAllocator<Texel>> data_;                       // random access: huge pages
   std::vector<std::uint16_t, TableAllocator<std::uint16_t>> block_bounds_;  // min | max << 8 per block
   unsigned block_shift_ = 0;                                                // log2(voxels per block edge)

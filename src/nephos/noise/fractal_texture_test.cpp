@@ -91,6 +91,41 @@ TEST(Texture, TrilinearSamplingHitsVoxelsAndWraps) {
   EXPECT_NEAR(t.sample(15.5f / 16, 0, 0), 0.5f * (t.voxel(15, 0, 0) + t.voxel(0, 0, 0)), 1e-6);
 }
 
+TEST(Texture, EveryFootprintLiesInOneCacheLineHoldingItsEightVoxels) {
+  // The overlapping-brick layout: for every voxel (i, j, k), the footprint of a lookup inside
+  // its cell (the cell from it to its +1 neighbours, wrapping at the tile edge) reads the eight
+  // voxels at corner + a + 4 b + 16 c within one 64-byte line, and each is the value of voxel
+  // ((i + a) % n, (j + b) % n, (k + c) % n). Sizes from the smallest (two bricks per axis) up,
+  // whose last brick wraps past the tile edge by three (n mod 3 = 1) or two (n mod 3 = 2) voxels.
+  for (int n : {4, 8, 16, 32}) {
+    Texture3D t(n);  // each voxel's own copy written, a value that differs from its neighbours'
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+          t.data()[t.index(i, j, k)] = static_cast<Texture3D::Texel>((i + 5 * j + 37 * k) % 251);
+    t.update_bounds();  // fills the aprons
+    EXPECT_EQ(t.bytes(), std::size_t{64} * ((n + 2) / 3) * ((n + 2) / 3) * ((n + 2) / 3));
+    const auto line = [&](std::size_t offset) { return (reinterpret_cast<std::uintptr_t>(t.data()) + offset) / 64; };
+    int wrong = 0;
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const float inv = 1.0f / static_cast<float>(n);
+          const Texture3D::Footprint f =
+              t.footprint((static_cast<float>(i) + 0.5f) * inv, (static_cast<float>(j) + 0.5f) * inv,
+                          (static_cast<float>(k) + 0.5f) * inv);
+          wrong += f.corner != t.index(i, j, k);
+          wrong += line(f.corner) != line(f.corner + 21);
+          for (int c = 0; c < 8; ++c) {
+            const int a = c & 1, b = (c >> 1) & 1, d = c >> 2;
+            wrong += t.data()[f.corner + static_cast<std::uint32_t>(a + 4 * b + 16 * d)] !=
+                     t.data()[t.index((i + a) % n, (j + b) % n, (k + d) % n)];
+          }
+        }
+    EXPECT_EQ(wrong, 0) << "n = " << n;
+  }
+}
+
 TEST(Texture, TrilinearSampleIsTheEightVoxelBlend) {
   // Anywhere in the tile (the wrap included), sample() is the trilinear blend of its eight
   // voxels, computed here in double from voxel(): each voxel's weight is the product of (1 - f)
