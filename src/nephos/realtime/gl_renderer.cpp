@@ -20,8 +20,11 @@ namespace nephos::realtime {
 namespace {
 
 constexpr int tex_size = 64, layers_per_type = 5;
-constexpr int impostor_size = 256;                // MSFS 2004: eight 256 x 256 impostors
-constexpr int crossfade_frames = 8;               // frames of the crossfade between two impostor sets
+constexpr int impostor_size = 256;   // MSFS 2004: eight 256 x 256 impostors
+constexpr int crossfade_frames = 8;  // frames of the crossfade between two impostor sets
+// A ring vertex: the quad corner (the octagon mesh's 3 floats) and the impostor quad's 17
+// instance floats, all per vertex, so that every sector's trimmed columns go in one draw.
+constexpr std::size_t ring_vertex_floats = 20;
 constexpr std::uint32_t lod_index = 0xfffff;      // sprite index of a cloud's LOD sprite (facing-lock key)
 constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
 constexpr int particle_layer = sheet_layer + 1;   // soft round particle
@@ -316,7 +319,16 @@ struct SpriteRenderer::Impl {
   std::array<bool, 8> sector_empty[2] = {};  // nothing was rendered into the sector
   // Vertical extent of each impostor (set, sector): the tangents of its frustum's bottom and top.
   std::array<double, 8> tan_low[2] = {}, tan_high[2] = {};
-  std::uint64_t generation = 0;  // bumps when the sprite set changes
+  // Per impostor (set, sector) and column: the rows holding clouds, as quad y in [-1, 1]
+  // (bottom, top; bottom > top: none), from the texture read back after rendering it.
+  struct ColumnSpan {
+    float bottom = 1, top = -1;
+  };
+  std::array<std::array<ColumnSpan, ring_columns>, 8> spans[2] = {};
+  bool trim_ring = true;  // set_trim_ring
+  GLuint ring_vao = 0, ring_vbo = 0;
+  std::vector<float> ring_vertices;  // this frame's ring triangles, ring_vertex_floats each
+  std::uint64_t generation = 0;      // bumps when the sprite set changes
 };
 
 namespace {
@@ -550,6 +562,20 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
                           reinterpret_cast<void*>(a.offset * sizeof(float)));
     glVertexAttribDivisor(a.location, 1);
   }
+  // The impostor ring's triangles: the same attributes, all per vertex (ring_vertex_floats).
+  glGenVertexArrays(1, &m.ring_vao);
+  glBindVertexArray(m.ring_vao);
+  glGenBuffers(1, &m.ring_vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, m.ring_vbo);
+  constexpr GLsizei ring_stride = ring_vertex_floats * sizeof(float);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, ring_stride, nullptr);
+  for (const auto& a : instance_attributes) {
+    glEnableVertexAttribArray(a.location);
+    glVertexAttribPointer(a.location, a.size, GL_FLOAT, GL_FALSE, ring_stride,
+                          reinterpret_cast<void*>((3 + a.offset) * sizeof(float)));
+  }
+  glBindVertexArray(m.vao);
 
   // Impostor textures: 2 sets x 8 sectors x 256 x 256 RGBA8 (premultiplied), 2 MiB per set.
   glGenTextures(2, m.imp_tex);
@@ -575,8 +601,8 @@ SpriteRenderer::~SpriteRenderer() {
   }
 }
 
-void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
-                            Shading shading, bool over_sky) {
+void SpriteRenderer::begin_pass(const Target& target, unsigned texture, bool clear, Shading shading, bool over_sky,
+                                bool trimmed) {
   auto& m = *impl_;
   const Camera& cam = target.camera;
   // Camera matrices (camera at the origin: positions are relative, which keeps float precision).
@@ -602,7 +628,6 @@ void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t
     glClearColor(target.clear[0], target.clear[1], target.clear[2], target.clear[3]);
     glClear(GL_COLOR_BUFFER_BIT);
   }
-  if (count == 0) return;
   if (over_sky) {
     glDisable(GL_BLEND);
   } else {
@@ -634,15 +659,41 @@ void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t
     for (int l = 0; l < texture_layers; ++l) q[3 * l] = q[3 * l + 1] = 1, q[3 * l + 2] = 2;
     return q;
   }();
-  const bool trimmed = shading == Shading::bent_normal && m.trim_sprites;
   glUniform3fv(p.u_trim, texture_layers, trimmed ? m.trim.data() : whole_quads.data());
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
+}
+
+void SpriteRenderer::submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear,
+                            Shading shading, bool over_sky) {
+  auto& m = *impl_;
+  const bool trimmed = shading == Shading::bent_normal && m.trim_sprites;
+  if (count == 0) {  // at most a clear (the sky)
+    if (clear) {
+      glBindFramebuffer(GL_FRAMEBUFFER, target.fbo);
+      glViewport(0, 0, target.width, target.height);
+      glClearColor(target.clear[0], target.clear[1], target.clear[2], target.clear[3]);
+      glClear(GL_COLOR_BUFFER_BIT);
+    }
+    return;
+  }
+  begin_pass(target, texture, clear, shading, over_sky, trimmed);
   glBindVertexArray(m.vao);
   glBindBuffer(GL_ARRAY_BUFFER, m.instances);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(count * 17 * sizeof(float)), m.buffer.data() + first * 17,
                GL_STREAM_DRAW);
   glDrawArraysInstanced(GL_TRIANGLE_STRIP, trimmed ? 0 : 8, trimmed ? 8 : 4, static_cast<GLsizei>(count));
+}
+
+void SpriteRenderer::submit_ring(const Target& target, std::size_t first, std::size_t count, unsigned texture) {
+  auto& m = *impl_;
+  if (count == 0) return;
+  begin_pass(target, texture, false, Shading::plain, false, false);
+  glBindVertexArray(m.ring_vao);
+  glBindBuffer(GL_ARRAY_BUFFER, m.ring_vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(count * ring_vertex_floats * sizeof(float)),
+               m.ring_vertices.data() + first * ring_vertex_floats, GL_STREAM_DRAW);
+  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(count));
 }
 
 SpriteRenderer::Target SpriteRenderer::screen(const Camera& cam, const SunLight& sun) const {
@@ -699,6 +750,38 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
                   sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
   }
   submit(t, 0, order.size(), m.texture, true, Shading::bent_normal);
+  // The columns that hold clouds, for the ring's draw (set_trim_ring). A pixel of the ring
+  // samples the texture bilinearly, so a column's span covers the texels whose footprint
+  // reaches into it (one texel beyond each side) and half a texel more above and below; outside
+  // it every sample is transparent and blending it would change nothing. Reading the layer
+  // back waits for its rendering, which the frame's glFinish would wait for anyway.
+  auto& spans = m.spans[set][static_cast<std::size_t>(sector)];
+  spans.fill({});
+  if (order.empty()) return;
+  static thread_local std::vector<std::uint8_t> rgba;
+  rgba.resize(4 * static_cast<std::size_t>(impostor_size) * impostor_size);
+  glReadPixels(0, 0, impostor_size, impostor_size, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());  // rows from the bottom
+  constexpr int column = impostor_size / ring_columns;
+  bool any = false;
+  for (int c = 0; c < ring_columns; ++c) {
+    int lo = impostor_size, hi = -1;
+    const int x0 = std::max(0, c * column - 1), x1 = std::min(impostor_size, (c + 1) * column + 1);
+    for (int y = 0; y < impostor_size; ++y) {
+      const std::uint8_t* row = rgba.data() + 4 * static_cast<std::size_t>(y) * impostor_size;
+      for (int x = x0; x < x1; ++x)
+        if (row[4 * x + 3] != 0) {
+          lo = std::min(lo, y), hi = y;
+          break;
+        }
+    }
+    if (hi < lo) continue;
+    any = true;
+    // Texel row r spans quad y 2 r / size - 1 .. 2 (r + 1) / size - 1; the bilinear reach adds
+    // half a texel each way, and another half keeps clear of the rounding of interpolation.
+    auto quad_y = [](double row) { return static_cast<float>(std::clamp(2 * row / impostor_size - 1, -1.0, 1.0)); };
+    spans[static_cast<std::size_t>(c)] = {quad_y(lo - 1), quad_y(hi + 2)};
+  }
+  m.sector_empty[set][static_cast<std::size_t>(sector)] = !any;
 }
 
 FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort,
@@ -786,18 +869,27 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   const int back = 1 - m.front;
   const bool fading_sets = back_weight > 0;
 
-  // ---- Instances: the ring's quads first (their own texture), then flat layers and sprites.
+  // ---- The ring's triangles (their own texture and vertex layout), then the instances: flat
+  // layers and sprites.
   m.buffer.clear();
+  m.ring_vertices.clear();
   // Each impostor is a quad on its sector's image plane at the ring radius, facing the ring's
-  // centre, so that from the centre it shows exactly what was rendered into it.
-  std::size_t ring_quads[2] = {0, 0};  // front set, back set
+  // centre, so that from the centre it shows exactly what was rendered into it; it is drawn
+  // over the columns of its texture that hold clouds (set_trim_ring), two triangles each from
+  // the column's left to its right edge. At an edge shared by two columns the bottom is the
+  // lower and the top the higher of their spans, the same two vertices for both, so the
+  // columns meet without cracks or overlaps, and each column's trapezoid contains its span.
+  std::size_t ring_vertex_count[2] = {0, 0};  // front set, back set
+  double ring_area = 0, quad_area = 0;        // in quad units (4 per impostor)
   if (impostors && m.ring.valid) {
     const double w = 2 * m.ring.radius_m * std::tan(M_PI / 8);
+    std::vector<float> quad;  // one impostor's 17 instance floats
     for (int which = 0; which < 2; ++which) {
       const double weight = which == 0 ? 1 - back_weight : back_weight;
       if (weight <= 0) continue;
       const int set = which == 0 ? m.front : back;
       const glm::dvec3 centre = which == 0 ? m.ring.centre : m.back_centre;
+      const std::size_t before = m.ring_vertices.size();
       for (int k = 0; k < 8; ++k) {
         const auto s = static_cast<std::size_t>(k);
         if (m.sector_empty[set][s]) continue;  // no fill for empty sky
@@ -805,12 +897,47 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
         const double lift = 0.5 * (m.tan_high[set][s] + m.tan_low[set][s]) * m.ring.radius_m;
         const double a = k * M_PI / 4;
         const glm::dvec3 d{std::cos(a), std::sin(a), 0};
-        push_instance(m.buffer, centre + air + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
+        quad.clear();
+        push_instance(quad, centre + air + m.ring.radius_m * d + glm::dvec3{0, 0, lift} - cam.position, w,
                       glm::dvec3(1.0), weight, k, -1.0, glm::dvec3(0.0), d, aspect);
-        ++ring_quads[which];
+        auto vertex = [&](float x, float y) {
+          m.ring_vertices.insert(m.ring_vertices.end(), {x, y, 0.0f});
+          m.ring_vertices.insert(m.ring_vertices.end(), quad.begin(), quad.end());
+        };
+        auto trapezoid = [&](float x0, float x1, float b0, float top0, float b1, float top1) {
+          vertex(x0, b0), vertex(x1, b1), vertex(x0, top0);
+          vertex(x0, top0), vertex(x1, b1), vertex(x1, top1);
+          ring_area += 0.5 * ((top0 - b0) + (top1 - b1)) * (x1 - x0);
+        };
+        quad_area += 4;
+        if (!m.trim_ring) {
+          trapezoid(-1, 1, -1, 1, -1, 1);
+          continue;
+        }
+        const auto& spans = m.spans[set][s];
+        // Bottom and top at the edge between columns c - 1 and c (c = 0 .. ring_columns).
+        auto edge = [&](int c) {
+          Impl::ColumnSpan e;
+          for (int n : {c - 1, c})
+            if (n >= 0 && n < ring_columns &&
+                spans[static_cast<std::size_t>(n)].bottom <= spans[static_cast<std::size_t>(n)].top)
+              e.bottom = std::min(e.bottom, spans[static_cast<std::size_t>(n)].bottom),
+              e.top = std::max(e.top, spans[static_cast<std::size_t>(n)].top);
+          return e;
+        };
+        for (int c = 0; c < ring_columns; ++c) {
+          const Impl::ColumnSpan& span = spans[static_cast<std::size_t>(c)];
+          if (span.bottom > span.top) continue;  // no clouds in this column
+          const Impl::ColumnSpan e0 = edge(c), e1 = edge(c + 1);
+          const float x0 = 2.0f * static_cast<float>(c) / ring_columns - 1,
+                      x1 = 2.0f * static_cast<float>(c + 1) / ring_columns - 1;
+          trapezoid(x0, x1, e0.bottom, e0.top, e1.bottom, e1.top);
+        }
       }
+      ring_vertex_count[which] = (m.ring_vertices.size() - before) / ring_vertex_floats;
     }
   }
+  stats.ring_coverage = quad_area > 0 ? ring_area / quad_area : 0.0;
   // Flat layers (altostratus, cirrus, fog), farthest altitude first: wide horizontal sheets
   // centred under/over the camera, drawn behind the sprite clouds. Two layers of one type next to
   // each other on the same side of the camera are one quad, the nearer sheet's, whose shader
@@ -951,12 +1078,11 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // of the flat layers, as when every cloud is drawn as sprites (a distant cumulus top in
   // front of an overcast deck above the horizon).
   const Target target = screen(cam, sun);
-  const std::size_t rings = ring_quads[0] + ring_quads[1];
   submit(target, 0, 0, m.texture, true, Shading::plain);  // the sky
   // The first flat layer lies over nothing but the uniform sky: it is composited with the sky
   // in its shader and written without blending, which spares llvmpipe reading and blending the
   // frame under it (0.1-0.8 ms of a 1280x720 frame under d400's deck; docs/PERFORMANCE.md).
-  std::size_t first = rings;
+  std::size_t first = 0;
   bool over_sky = m.first_layer_over_sky;
   for (const auto& [shading, count] : layer_runs) {
     std::size_t n = count;
@@ -968,8 +1094,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     submit(target, first, n, m.texture, false, shading);
     first += n;
   }
-  submit(target, 0, ring_quads[0], m.imp_tex[m.front], false, Shading::plain);
-  if (ring_quads[1]) submit(target, ring_quads[0], ring_quads[1], m.imp_tex[back], false, Shading::plain);
+  submit_ring(target, 0, ring_vertex_count[0], m.imp_tex[m.front]);
+  submit_ring(target, ring_vertex_count[0], ring_vertex_count[1], m.imp_tex[back]);
   submit(target, first, m.buffer.size() / 17 - first, m.texture, false, Shading::bent_normal);
   glFinish();
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -1016,6 +1142,8 @@ void SpriteRenderer::set_merge_flat_layers(bool merge) { impl_->merge_layers = m
 void SpriteRenderer::set_trim_sprites(bool trim) { impl_->trim_sprites = trim; }
 
 void SpriteRenderer::set_first_layer_over_sky(bool over_sky) { impl_->first_layer_over_sky = over_sky; }
+
+void SpriteRenderer::set_trim_ring(bool trim) { impl_->trim_ring = trim; }
 
 void SpriteRenderer::set_impostor_radius(double radius_m) {
   if (!(radius_m > 0)) throw ValueError("the impostor ring radius must be > 0 m", {.key = "impostor_radius_m"});

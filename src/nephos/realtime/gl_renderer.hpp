@@ -41,6 +41,10 @@ struct FrameStats {
   std::size_t sprites = 0;         ///< sprites drawn individually (not through impostors)
   int impostor_updates = 0;        ///< impostor textures re-rendered this frame (8 on the first frame)
   std::size_t locked_sprites = 0;  ///< sprites whose facing is locked (camera inside them)
+  /// The area of the impostor quads the ring's draw covers, as a fraction of the quads' whole
+  /// area (each impostor trimmed to the columns of its texture that hold clouds; 1 untrimmed,
+  /// 0 without a ring).
+  double ring_coverage = 0;
 };
 
 /// Which OpenGL: ES 3.0 or desktop 3.3 core profile.
@@ -103,6 +107,13 @@ class SpriteRenderer {
   /// composited with the sky in its shader and written without blending (default) or blended
   /// like the others (for comparison: the frames agree to the rounding of the 8-bit blend).
   void set_first_layer_over_sky(bool over_sky);
+  /// Whether each impostor is drawn over only the columns of its texture that hold clouds
+  /// (default; ring_columns columns, each from its lowest to its highest non-transparent texel,
+  /// read back after the impostor is rendered) or over its whole quad (for comparison: the
+  /// pixels left out would have blended a fully transparent texel).
+  void set_trim_ring(bool trim);
+  /// Columns per impostor for set_trim_ring (8 texels each).
+  static constexpr int ring_columns = 32;
   /// Draws point sprites (one instanced draw call), in their given order.
   FrameStats draw_points(const PointSprites& sprites, const Camera& camera);
   /// Copies the last frame into the current context's default framebuffer (window mode),
@@ -144,6 +155,13 @@ class SpriteRenderer {
   /// without blending.
   void submit(const Target& target, std::size_t first, std::size_t count, unsigned texture, bool clear, Shading shading,
               bool over_sky = false);
+  /// Draws vertices [first, first + count) of the ring's triangles (built in draw()) with the
+  /// flat shader, blended over what `target` holds.
+  void submit_ring(const Target& target, std::size_t first, std::size_t count, unsigned texture);
+  /// What submit() and submit_ring() share: binds `target`, clears it if asked, and sets the
+  /// blend state, the program of `shading` with its uniforms (sprite trims if `trimmed`) and
+  /// `texture`.
+  void begin_pass(const Target& target, unsigned texture, bool clear, Shading shading, bool over_sky, bool trimmed);
   /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
   void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
                        const Camera& camera);
