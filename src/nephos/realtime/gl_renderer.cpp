@@ -309,7 +309,10 @@ struct SpriteRenderer::Impl {
 
   // Impostor ring (MSFS 2004): two sets of 8 layers of 256x256, the front one drawn, the back
   // one being rebuilt a sector per frame, then crossfaded.
-  GLuint imp_tex[2] = {0, 0}, imp_fbo = 0;
+  // The sets are only sampled: each impostor is rendered into one scratch target, read back
+  // and copied into its set's layer (llvmpipe samples a texture that was filled by an upload
+  // and is attached to no framebuffer faster: docs/PERFORMANCE.md).
+  GLuint imp_tex[2] = {0, 0}, imp_fbo = 0, imp_scratch = 0;
   int front = 0;
   ImpostorRing ring;
   glm::dvec3 back_centre{0.0};
@@ -589,6 +592,13 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
     glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   }
   glGenFramebuffers(1, &m.imp_fbo);
+  glGenRenderbuffers(1, &m.imp_scratch);
+  glBindRenderbuffer(GL_RENDERBUFFER, m.imp_scratch);
+  glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, impostor_size, impostor_size);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, m.imp_scratch);
+  if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+    throw IoError("OpenGL ES: impostor framebuffer incomplete");
 }
 
 SpriteRenderer::~SpriteRenderer() {
@@ -726,8 +736,6 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   t.tan_y_high = m.tan_high[set][static_cast<std::size_t>(sector)];
   t.clear = {0, 0, 0, 0};
   t.sun = sun.direction;
-  glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
-  glFramebufferTextureLayer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, m.imp_tex[set], 0, sector);
   // The captured sprites that overlap this 45-degree sector, back to front from the ring centre.
   std::vector<glm::dvec3> pos;
   std::vector<std::pair<const SpriteCloud*, const Sprite*>> items;
@@ -753,14 +761,18 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   // The columns that hold clouds, for the ring's draw (set_trim_ring). A pixel of the ring
   // samples the texture bilinearly, so a column's span covers the texels whose footprint
   // reaches into it (one texel beyond each side) and half a texel more above and below; outside
-  // it every sample is transparent and blending it would change nothing. Reading the layer
-  // back waits for its rendering, which the frame's glFinish would wait for anyway.
+  // it every sample is transparent and blending it would change nothing. Reading the image
+  // back waits for its rendering, which the frame's glFinish would wait for anyway; the same
+  // texels then go into the set's layer.
   auto& spans = m.spans[set][static_cast<std::size_t>(sector)];
   spans.fill({});
   if (order.empty()) return;
   static thread_local std::vector<std::uint8_t> rgba;
   rgba.resize(4 * static_cast<std::size_t>(impostor_size) * impostor_size);
   glReadPixels(0, 0, impostor_size, impostor_size, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());  // rows from the bottom
+  glBindTexture(GL_TEXTURE_2D_ARRAY, m.imp_tex[set]);
+  glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, sector, impostor_size, impostor_size, 1, GL_RGBA, GL_UNSIGNED_BYTE,
+                  rgba.data());
   constexpr int column = impostor_size / ring_columns;
   bool any = false;
   for (int c = 0; c < ring_columns; ++c) {
