@@ -15,77 +15,19 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/noise/fractal_texture.hpp"
+#include "nephos/realtime/sprite_textures.hpp"
 
 namespace nephos::realtime {
 namespace {
 
-constexpr int tex_size = 64, layers_per_type = 5;
+constexpr int tex_size = sprite_texture_size;
 constexpr int impostor_size = 256;   // MSFS 2004: eight 256 x 256 impostors
 constexpr int crossfade_frames = 8;  // frames of the crossfade between two impostor sets
 // A ring vertex: the quad corner (the octagon mesh's 3 floats) and the impostor quad's 17
 // instance floats, all per vertex, so that every sector's trimmed columns go in one draw.
 constexpr std::size_t ring_vertex_floats = 20;
-constexpr std::uint32_t lod_index = 0xfffff;      // sprite index of a cloud's LOD sprite (facing-lock key)
-constexpr int sheet_layer = 2 * layers_per_type;  // tileable sheet for flat layers
-constexpr int particle_layer = sheet_layer + 1;   // soft round particle
-constexpr int texture_layers = particle_layer + 1;
-
-// Sprite textures baked from a 3D density: an ellipsoidal puff modulated by a tileable Perlin
-// fractal, seen from five elevations (-60..60 deg); opacity 1 - exp(-kappa * column density),
-// premultiplied white (the shading colours it per vertex).
-std::vector<std::uint8_t> bake_sprites(std::uint64_t seed) {
-  const noise::Texture3D tex = noise::bake({noise::FractalKind::perlin, 4, 3, 0.5, false}, seed, 32);
-  std::vector<std::uint8_t> out(static_cast<std::size_t>(texture_layers) * tex_size * tex_size * 4);
-  for (int type = 0; type < 2; ++type)
-    for (int l = 0; l < layers_per_type; ++l) {
-      const double el = (-60.0 + 30.0 * l) * M_PI / 180;
-      const double flat = type == 0 ? 1.0 : 0.45;  // cumulus round, stratocumulus flat
-      const glm::dvec3 view{0, std::cos(el), std::sin(el)}, right{1, 0, 0};
-      const glm::dvec3 up = glm::cross(right, view);
-      for (int y = 0; y < tex_size; ++y)
-        for (int x = 0; x < tex_size; ++x) {
-          const double u = (x + 0.5) / tex_size * 2 - 1, v = 1 - (y + 0.5) / tex_size * 2;
-          double column = 0;
-          for (int k = 0; k < 32; ++k) {
-            const double t = (k + 0.5) / 32 * 2 - 1;
-            const glm::dvec3 p = u * right + v * up + t * view;
-            const double r2 = p.x * p.x + p.y * p.y + (p.z / flat) * (p.z / flat);
-            if (r2 >= 1) continue;
-            const double n = tex.sample(static_cast<float>(p.x * 0.5 + 7), static_cast<float>(p.y * 0.5 + 3),
-                                        static_cast<float>(p.z * 0.5 + 5));
-            column += std::max(0.0, (1 - r2) * (0.4 + n) - 0.35) * (2.0 / 32);
-          }
-          const double alpha = 1 - std::exp(-4 * column);
-          const std::size_t q =
-              ((static_cast<std::size_t>(type * layers_per_type + l) * tex_size + y) * tex_size + x) * 4;
-          const auto a = static_cast<std::uint8_t>(std::lround(255 * alpha));
-          out[q] = out[q + 1] = out[q + 2] = a;  // premultiplied white
-          out[q + 3] = a;
-        }
-    }
-  // A tileable sheet for the flat layers: a horizontal slice of the (periodic) fractal, opacity
-  // rising smoothly above its median.
-  for (int y = 0; y < tex_size; ++y)
-    for (int x = 0; x < tex_size; ++x) {
-      const double n = tex.sample(static_cast<float>(x) / tex_size, static_cast<float>(y) / tex_size, 0.5f);
-      const double alpha = std::clamp((n - 0.42) / 0.2, 0.0, 1.0);
-      const std::size_t q = ((static_cast<std::size_t>(sheet_layer) * tex_size + y) * tex_size + x) * 4;
-      const auto a = static_cast<std::uint8_t>(std::lround(255 * alpha));
-      out[q] = out[q + 1] = out[q + 2] = a;
-      out[q + 3] = a;
-    }
-  // A soft round particle: opacity (1 - r^2)^2, smooth to zero at the rim.
-  for (int y = 0; y < tex_size; ++y)
-    for (int x = 0; x < tex_size; ++x) {
-      const double u = (x + 0.5) / tex_size * 2 - 1, v = (y + 0.5) / tex_size * 2 - 1;
-      const double r2 = std::min(1.0, u * u + v * v);
-      const std::size_t q = ((static_cast<std::size_t>(particle_layer) * tex_size + y) * tex_size + x) * 4;
-      const auto a = static_cast<std::uint8_t>(std::lround(255 * (1 - r2) * (1 - r2)));
-      out[q] = out[q + 1] = out[q + 2] = a;
-      out[q + 3] = a;
-    }
-  return out;
-}
+constexpr std::uint32_t lod_index = 0xfffff;  // sprite index of a cloud's LOD sprite (facing-lock key)
+constexpr int texture_layers = texture_layer_count;
 
 }  // namespace
 
@@ -141,9 +83,12 @@ out vec3 v_bend;      // the unnormalised bent normal
 out float v_bend_sun; // its dot product with the sun direction
 #endif
 #ifdef SHEET
+uniform vec4 sheet_mean[SHEET_LAYERS];  // each flat-layer texture's mean texel
 out vec2 v_rel;        // position relative to the camera on the (nearer) sheet [tiles]
 flat out vec4 v_fade;  // distance fade: nearer sheet's scale [1/tiles^2], offset, farther sheet's
                        // scale; 1 / the sheet's half-width^2 [1/tiles^2]
+flat out vec4 v_mean;  // the layer texture's mean texel
+flat out float v_dz2;  // the (nearer) sheet's height above or below the camera, squared [tiles^2]
 #endif
 #ifdef LAYER_PAIR
 out vec4 v_far;  // the farther layer: texture coordinates [tiles], position [its half-widths]
@@ -190,6 +135,9 @@ void main() {
   // texels is that many times the nearer sheet's at the same pixel).
   v_rel = (uv - 0.5) * layer_tiles.y;
   v_fade = vec4(facing_aspect.y, facing_aspect.z, facing_aspect.y * facing_aspect.x, 4.0 / (layer_tiles.y * layer_tiles.y));
+  v_mean = sheet_mean[int(layer_tiles.x) - FIRST_SHEET_LAYER];
+  float dz = pos_size.z * layer_tiles.y / pos_size.w;  // metres to tiles
+  v_dz2 = dz * dz;
 #endif
 #ifdef LAYER_PAIR
   // The view ray through this point of the nearer sheet meets the farther one, k times as far
@@ -213,28 +161,40 @@ in float v_bend_sun;
 #ifdef SHEET
 in vec2 v_rel;
 flat in vec4 v_fade;
+flat in vec4 v_mean;
+flat in float v_dz2;
 #endif
 #ifdef LAYER_PAIR
 in vec4 v_far;
 #endif
 #ifdef SHEET
 uniform vec4 under;  // the sky for the first layer of a frame, written without blending; else 0
+uniform float view_scale;  // 1, or 0 for the vertical view everywhere (set_layer_views)
 #endif
 out vec4 frag;
 void main() {
 #ifdef SHEET
-  // Flat layers. Their texture is premultiplied white (r = g = b = a), so its alpha is all it
-  // holds: one channel fetched spares llvmpipe unpacking the other three. Far out on a sheet a
-  // pixel spans many texels and the unfiltered texture aliases (moire at the horizon; mipmaps
-  // would add 1-2 ms to a frame on llvmpipe, measured). The footprint in texels grows as the
-  // squared distance, so the texel fades to the texture's mean from 1 to 4 texels per pixel:
-  // a smooth deck towards the horizon, as a filtered texture would show. And the sheet, a
-  // finite square, fades out radially from 0.3 of its half-width to its edge, so that the deck
+  // Flat layers. Each texel holds the slab seen from the camera's side along the vertical
+  // (r: radiance, g: opacity) and at 45 degrees (b, a), premultiplied; a pixel blends the two by
+  // its view's elevation, sin^2 of its zenith angle d2 / (dz2 + d2) (0 overhead, 1/2 at 45
+  // degrees), the same for both sheets of a pair (one ray). Far out on a sheet a pixel spans
+  // many texels and the unfiltered texture aliases (moire at the horizon; mipmaps would add 1-2
+  // ms to a frame on llvmpipe, measured). The footprint in texels grows as the squared
+  // distance, so the texel fades to the texture's mean from 1 to 4 texels per pixel: a smooth
+  // deck towards the horizon, as a filtered texture would show. And the sheet, a finite
+  // square, fades out radially from 0.3 of its half-width to its edge, so that the deck
   // dissolves into the sky near the horizon instead of ending at a hard line.
   float d2 = dot(v_rel, v_rel);
-  float a = mix(texture(sprites, vec3(v_uv, v_layer)).a, SHEET_MEAN, clamp(d2 * v_fade.x - v_fade.y, 0.0, 1.0)) *
-            clamp((1.0 - d2 * v_fade.w) * EDGE_FADE, 0.0, 1.0);
-  vec4 t = vec4(a);
+#ifdef SLANT_ONLY
+  // A frame whose every ray is more than 45 degrees from the vertical: the 45-degree view alone.
+  vec2 ca = mix(texture(sprites, vec3(v_uv, v_layer)).ba, v_mean.ba, clamp(d2 * v_fade.x - v_fade.y, 0.0, 1.0));
+#else
+  float view = clamp(2.0 * d2 / (v_dz2 + d2) * view_scale, 0.0, 1.0);
+  vec4 s = mix(texture(sprites, vec3(v_uv, v_layer)), v_mean, clamp(d2 * v_fade.x - v_fade.y, 0.0, 1.0));
+  vec2 ca = mix(s.rg, s.ba, view);
+#endif
+  ca *= clamp((1.0 - d2 * v_fade.w) * EDGE_FADE, 0.0, 1.0);
+  vec4 t = vec4(ca.xxx, ca.y);
 #else
   vec4 t = texture(sprites, vec3(v_uv, v_layer));  // premultiplied
 #endif
@@ -248,9 +208,14 @@ void main() {
   // The farther sheet behind the nearer one (faded alike; its footprint and its position in its
   // half-widths are k times the nearer one's): the two "over" blends of separate passes,
   // composited here and blended into the frame once.
-  float a_far = mix(texture(sprites, vec3(v_far.xy, v_layer)).a, SHEET_MEAN, clamp(d2 * v_fade.z - v_fade.y, 0.0, 1.0)) *
-                clamp((1.0 - dot(v_far.zw, v_far.zw)) * EDGE_FADE, 0.0, 1.0) * v_diffuse.z;
-  frag += (1.0 - frag.a) * vec4(a_far * c, a_far);
+#ifdef SLANT_ONLY
+  vec2 ca_far = mix(texture(sprites, vec3(v_far.xy, v_layer)).ba, v_mean.ba, clamp(d2 * v_fade.z - v_fade.y, 0.0, 1.0));
+#else
+  vec4 s_far = mix(texture(sprites, vec3(v_far.xy, v_layer)), v_mean, clamp(d2 * v_fade.z - v_fade.y, 0.0, 1.0));
+  vec2 ca_far = mix(s_far.rg, s_far.ba, view);
+#endif
+  ca_far *= clamp((1.0 - dot(v_far.zw, v_far.zw)) * EDGE_FADE, 0.0, 1.0) * v_diffuse.z;
+  frag += (1.0 - frag.a) * vec4(ca_far.x * c, ca_far.y);
 #endif
 #ifdef SHEET
   frag += (1.0 - frag.a) * under;
@@ -293,13 +258,15 @@ struct SpriteRenderer::Impl {
   struct Program {
     GLuint id = 0;
     GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1, u_trim = -1,
-          u_under = -1;
+          u_under = -1, u_sheet_mean = -1, u_view_scale = -1;
   };
-  Program lit, plain, sheet, layer_pair;
-  bool merge_layers = true;                      // draw two flat layers of a type in one pass (set_merge_flat_layers)
-  bool trim_sprites = true;                      // sprites cover their layer's octagon (set_trim_sprites)
-  bool first_layer_over_sky = true;              // set_first_layer_over_sky
-  std::array<float, 3 * texture_layers> trim{};  // SpriteTrim per texture layer (a, b, c)
+  Program lit, plain, sheet, layer_pair, sheet_slant, layer_pair_slant;
+  bool merge_layers = true;                        // draw two flat layers of a type in one pass (set_merge_flat_layers)
+  bool trim_sprites = true;                        // sprites cover their layer's octagon (set_trim_sprites)
+  bool first_layer_over_sky = true;                // set_first_layer_over_sky
+  LayerViews layer_views = LayerViews::automatic;  // set_layer_views
+  std::array<float, 3 * texture_layers> trim{};    // SpriteTrim per texture layer (a, b, c)
+  std::array<float, 4 * 2 * slab_types> sheet_mean{};  // mean texel of each flat-layer texture
   std::vector<std::size_t> order;
   std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
   std::vector<float> buffer;
@@ -322,6 +289,7 @@ struct SpriteRenderer::Impl {
   std::array<bool, 8> sector_empty[2] = {};  // nothing was rendered into the sector
   // Vertical extent of each impostor (set, sector): the tangents of its frustum's bottom and top.
   std::array<double, 8> tan_low[2] = {}, tan_high[2] = {};
+  std::array<double, 2> band[2] = {};  // the camera's band between flat layers when each set was captured
   // Per impostor (set, sector) and column: the rows holding clouds, as quad y in [-1, 1]
   // (bottom, top; bottom > top: none), from the texture read back after rendering it.
   struct ColumnSpan {
@@ -382,7 +350,7 @@ void push_instance(std::vector<float>& b, const glm::dvec3& rel, double size, co
 }
 
 double sprite_layer(const SpriteCloud& c, const Sprite& s) {
-  return (c.type == SpriteCloudType::cumulus ? 0 : layers_per_type) + s.texture_layer % layers_per_type;
+  return (c.type == SpriteCloudType::cumulus ? 0 : sprite_views_per_type) + s.texture_layer % sprite_views_per_type;
 }
 
 // Vertical half-angle of an impostor: clouds up to max_vertical_offset above or below, seen
@@ -502,20 +470,31 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
     p.u_front = glGetUniformLocation(p.id, "cam_front");
     p.u_trim = glGetUniformLocation(p.id, "trim");
     p.u_under = glGetUniformLocation(p.id, "under");
+    p.u_sheet_mean = glGetUniformLocation(p.id, "sheet_mean");
+    p.u_view_scale = glGetUniformLocation(p.id, "view_scale");
   };
-  const auto pixels = bake_sprites(seed);
-  // The sheet texture's mean premultiplied texel (white: all four channels alike), the value a
-  // fully filtered lookup converges to far out on a sheet.
-  double sheet_mean = 0;
-  for (int k = 0; k < tex_size * tex_size; ++k)
-    sheet_mean += pixels[(static_cast<std::size_t>(sheet_layer) * tex_size * tex_size + k) * 4 + 3];
-  sheet_mean /= 255.0 * tex_size * tex_size;
-  const std::string sheet = "#define SHEET 1\n#define SHEET_MEAN " + fmt::format("{:.9g}", sheet_mean) +
-                            "\n#define EDGE_FADE " + fmt::format("{:.9g}", 1 / (1 - 0.3 * 0.3)) + "\n";
+  const auto pixels = bake_sprite_textures(seed);
+  // Each flat-layer texture's mean texel, the value a fully filtered lookup converges to far out
+  // on a sheet (a uniform per layer, read by the vertex shader).
+  for (int l = 0; l < 2 * slab_types; ++l) {
+    std::array<double, 4> sum{};
+    for (int k = 0; k < tex_size * tex_size; ++k)
+      for (int c = 0; c < 4; ++c)
+        sum[static_cast<std::size_t>(c)] +=
+            pixels[(static_cast<std::size_t>(first_slab_layer + l) * tex_size * tex_size + k) * 4 + c];
+    for (int c = 0; c < 4; ++c)
+      m.sheet_mean[static_cast<std::size_t>(4 * l + c)] =
+          static_cast<float>(sum[static_cast<std::size_t>(c)] / (255.0 * tex_size * tex_size));
+  }
+  const std::string sheet = "#define SHEET 1\n#define FIRST_SHEET_LAYER " + std::to_string(first_slab_layer) +
+                            "\n#define SHEET_LAYERS " + std::to_string(2 * slab_types) + "\n#define EDGE_FADE " +
+                            fmt::format("{:.9g}", 1 / (1 - 0.3 * 0.3)) + "\n";
   link(m.lit, "#define BENT_NORMAL 1\n");
   link(m.plain, "");
   link(m.sheet, sheet);
   link(m.layer_pair, sheet + "#define LAYER_PAIR 1\n");
+  link(m.sheet_slant, sheet + "#define SLANT_ONLY 1\n");
+  link(m.layer_pair_slant, sheet + "#define SLANT_ONLY 1\n#define LAYER_PAIR 1\n");
 
   for (int l = 0; l < texture_layers; ++l) {
     const SpriteTrim t = sprite_trim(pixels.data() + static_cast<std::size_t>(l) * tex_size * tex_size * 4, tex_size);
@@ -644,10 +623,12 @@ void SpriteRenderer::begin_pass(const Target& target, unsigned texture, bool cle
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // premultiplied alpha
   }
-  const Impl::Program& p = shading == Shading::bent_normal  ? m.lit
-                           : shading == Shading::layer_pair ? m.layer_pair
-                           : shading == Shading::sheet      ? m.sheet
-                                                            : m.plain;
+  const Impl::Program& p = shading == Shading::bent_normal        ? m.lit
+                           : shading == Shading::layer_pair       ? m.layer_pair
+                           : shading == Shading::sheet            ? m.sheet
+                           : shading == Shading::layer_pair_slant ? m.layer_pair_slant
+                           : shading == Shading::sheet_slant      ? m.sheet_slant
+                                                                  : m.plain;
   glUseProgram(p.id);
   glUniformMatrix4fv(p.u_view_proj, 1, GL_FALSE, &vp[0][0]);
   glUniform3f(p.u_right, static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z));
@@ -670,6 +651,8 @@ void SpriteRenderer::begin_pass(const Target& target, unsigned texture, bool cle
     return q;
   }();
   glUniform3fv(p.u_trim, texture_layers, trimmed ? m.trim.data() : whole_quads.data());
+  if (p.u_sheet_mean >= 0) glUniform4fv(p.u_sheet_mean, 2 * slab_types, m.sheet_mean.data());
+  if (p.u_view_scale >= 0) glUniform1f(p.u_view_scale, m.layer_views == LayerViews::vertical ? 0.0f : 1.0f);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
 }
@@ -812,7 +795,21 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // their texels and fill cover clouds, not sky. In an impostor a sprite is a billboard
   // parallel to the image plane, at its centre's depth along the sector's axis, so the tangents
   // of its bottom and top edges are exact: (z -+ size / 2) / depth.
+  // The camera's band: between the nearest flat layers below and above it. A sprite beyond one
+  // of them is hidden by it wherever the layer covers it (every ray from the camera to the
+  // sprite crosses the layer's plane), so it is drawn before the flat layers, and it stays out
+  // of the impostors, which are drawn after them.
+  double band_lo = -1e300, band_hi = 1e300;
+  for (const auto& l : field.layers()) {
+    if (!(l.opacity > 0)) continue;
+    if (l.altitude_m > cam.position.z)
+      band_hi = std::min(band_hi, l.altitude_m);
+    else
+      band_lo = std::max(band_lo, l.altitude_m);
+  }
+  auto in_band = [&](double z) { return z > band_lo && z < band_hi; };
   auto capture = [&](int set, const glm::dvec3& centre) {
+    m.band[set] = {band_lo, band_hi};
     std::vector<SpriteKey> keys;
     std::array<double, 8> lo, hi;
     lo.fill(1e9), hi.fill(-1e9);
@@ -822,7 +819,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
         const Sprite& sp = c.sprites[k];
         const glm::dvec3 p = c.centre + glm::dvec3(sp.offset);
         const double r = sprite_radius(sp);
-        if (!m.ring.in_impostor(p, r, centre)) continue;
+        if (!m.ring.in_impostor(p, r, centre) || !in_band(p.z)) continue;
         keys.push_back({cloud_key(c), k});
         const Bearing b = bearing(p, r, centre);  // once, not per sector
         for (std::size_t s = 0; s < 8; ++s) {
@@ -846,6 +843,12 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   };
   // ---- Impostor ring upkeep: at most one sector rendered per frame once the ring exists.
   double back_weight = 0;  // crossfade weight of the back set
+  if (impostors && m.ring.valid && m.band[m.front] != std::array<double, 2>{band_lo, band_hi}) {
+    // The camera crossed a flat layer (or one formed or went): the sprites the impostors hold
+    // are no longer those it may draw after the layers; all eight are made again now.
+    m.ring.valid = false;
+    m.next_sector = m.crossfade = -1;
+  }
   if (!impostors) {
     if (m.ring.valid) ++m.generation;
     m.ring.valid = false;
@@ -958,17 +961,39 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // upper half of the frame twice. Layers above and below the camera cover disjoint parts of
   // the frame, so only the order within a side matters.
   const double ambient = 0.35 + 0.65 * std::clamp(sun.elevation_deg / 30.0, 0.0, 1.0);
+  // A layer's texture holds its slab's radiance (relative to the light falling on it) and
+  // opacity, seen from the camera's side (sprite_textures.hpp); the light is the sprites'
+  // time-of-day ambient plus a sun term, the opacity is scaled by the layer's formation fade.
   struct LayerStyle {
-    glm::dvec3 colour;
+    glm::dvec3 light;
     double alpha, tile_m;
+    int type;  // slab type: altostratus, cirrus, low stratus
   };
   auto style = [&](const FlatLayer& l) {
-    const bool cirrus = l.type == SpriteCloudType::cirrus, fog = l.type == SpriteCloudType::low_stratus;
-    const double grey = cirrus ? 1.0 : fog ? 0.85 : 0.78, alpha = (cirrus ? 0.45 : fog ? 0.9 : 0.7) * l.opacity;
-    const glm::dvec3 c = glm::min(glm::dvec3(1.0), ambient * grey + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
-    return LayerStyle{c, alpha, cirrus ? 6000.0 : 3000.0};
+    const int type = l.type == SpriteCloudType::cirrus ? 1 : l.type == SpriteCloudType::low_stratus ? 2 : 0;
+    const glm::dvec3 light = glm::min(glm::dvec3(1.0), ambient + 0.15 * std::max(0.0, sun.direction.z) * sun.colour);
+    return LayerStyle{light, double{l.opacity}, type == 1 ? 6000.0 : 3000.0, type};
   };
   std::vector<std::pair<Shading, std::size_t>> layer_runs;  // consecutive draws of one shader
+  bool first_layer_above = false;                           // the first layer drawn is above the camera
+  // Whether a ray of the frame comes within 45 degrees (plus a margin) of the nadir or the
+  // zenith: only then does a layer on that side show its vertical view (its shader's weight of
+  // the 45-degree view is 1 for every ray further from the vertical). The frustum's extreme
+  // elevations lie on its boundary; it is sampled densely, with a degree to spare.
+  bool steep_view[2] = {false, false};  // below, above
+  {
+    const Target t = screen(cam, sun);
+    const glm::dvec3 f = glm::normalize(cam.forward), r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
+    const double limit = std::sin(44.0 * M_PI / 180);
+    for (int k = 0; k < 4 * 64; ++k) {
+      const double e = (k % 64) / 63.0 * 2 - 1;  // along an edge
+      const double x = k < 64 ? e : k < 128 ? -e : k < 192 ? -1 : 1, y = k < 64 ? 1 : k < 128 ? -1 : e;
+      const glm::dvec3 d = glm::normalize(
+          f + x * t.tan_half_x * r + (0.5 * (t.tan_y_high + t.tan_y_low) + 0.5 * y * (t.tan_y_high - t.tan_y_low)) * u);
+      steep_view[0] = steep_view[0] || d.z < -limit;
+      steep_view[1] = steep_view[1] || d.z > limit;
+    }
+  }
   for (const bool above : {true, false}) {
     std::vector<const FlatLayer*> side;
     for (const auto& l : field.layers())
@@ -1005,10 +1030,16 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       const double theta = 2 * std::tan(0.5 * cam.fov_deg * M_PI / 180) / h_;
       const double scale = st.tile_m * tex_size * theta /
                            (std::max(std::abs(l->altitude_m - cam.position.z), 1.0) * (fade_to - fade_from));
-      push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, st.colour, st.alpha, sheet_layer,
-                    size / st.tile_m, {u - std::floor(u), v - std::floor(v), far_alpha},
+      // The slab seen from below (the camera under the layer) or from above.
+      const int layer = first_slab_layer + 2 * st.type + (above ? 0 : 1);
+      push_instance(m.buffer, {0, 0, l->altitude_m - cam.position.z}, size, st.light, st.alpha, layer, size / st.tile_m,
+                    {u - std::floor(u), v - std::floor(v), far_alpha},
                     {far_ratio, scale, fade_from / (fade_to - fade_from)}, 1.0);
-      const Shading shading = behind ? Shading::layer_pair : Shading::sheet;
+      const bool slant =
+          m.layer_views == LayerViews::slant || (m.layer_views == LayerViews::automatic && !steep_view[above ? 1 : 0]);
+      const Shading shading = behind ? (slant ? Shading::layer_pair_slant : Shading::layer_pair)
+                                     : (slant ? Shading::sheet_slant : Shading::sheet);
+      if (layer_runs.empty()) first_layer_above = above;
       if (layer_runs.empty() || layer_runs.back().first != shading) layer_runs.push_back({shading, 0});
       ++layer_runs.back().second;
     }
@@ -1066,36 +1097,46 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // orientation it had when the camera came that close, instead of spinning around the camera.
   std::unordered_map<std::uint64_t, glm::vec3> locked;
   const glm::dvec3 front = glm::normalize(cam.forward);
-  for (std::size_t k : m.order) {
-    const Item& it = items[k];
-    const Shade sh = shade_sprite(*it.cloud, *it.sprite, sun);
-    const glm::dvec3 rel = pos[k] - cam.position;
-    glm::dvec3 facing(0.0);
-    if (glm::length(rel) < 0.25 * it.sprite->size_m) {
-      const std::uint64_t key = (static_cast<std::uint64_t>(it.cloud->id) << 20) | it.index;
-      const auto old = m.locked.find(key);
-      const glm::vec3 f = old != m.locked.end() ? old->second : glm::vec3(front);
-      locked.emplace(key, f);
-      facing = glm::dvec3(f);
+  // Sprites beyond a flat layer first (back to front), then those in the camera's band.
+  const std::size_t first_sprite = m.buffer.size() / 17;
+  std::size_t beyond = 0;
+  bool beyond_on_side[2] = {false, false};  // below, above the camera
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t k : m.order) {
+      if (in_band(pos[k].z) == (pass == 0)) continue;
+      if (pass == 0) ++beyond, beyond_on_side[pos[k].z > cam.position.z] = true;
+      const Item& it = items[k];
+      const Shade sh = shade_sprite(*it.cloud, *it.sprite, sun);
+      const glm::dvec3 rel = pos[k] - cam.position;
+      glm::dvec3 facing(0.0);
+      if (glm::length(rel) < 0.25 * it.sprite->size_m) {
+        const std::uint64_t key = (static_cast<std::uint64_t>(it.cloud->id) << 20) | it.index;
+        const auto old = m.locked.find(key);
+        const glm::vec3 f = old != m.locked.end() ? old->second : glm::vec3(front);
+        locked.emplace(key, f);
+        facing = glm::dvec3(f);
+      }
+      push_instance(m.buffer, rel, it.sprite->size_m, sh.colour, it.alpha, sprite_layer(*it.cloud, *it.sprite), 0.0,
+                    sh.diffuse, facing, 1.0);
     }
-    push_instance(m.buffer, rel, it.sprite->size_m, sh.colour, it.alpha, sprite_layer(*it.cloud, *it.sprite), 0.0,
-                  sh.diffuse, facing, 1.0);
-  }
   m.locked = std::move(locked);
   stats.locked_sprites = m.locked.size();
 
-  // Draws: the sky, the flat layers, the ring (one draw per impostor set: each set is its own
-  // texture array), then every sprite in one instanced call (the layers without the sprites'
-  // bent-normal term). The ring holds sprite clouds, so it goes where the sprites go: in front
-  // of the flat layers, as when every cloud is drawn as sprites (a distant cumulus top in
-  // front of an overcast deck above the horizon).
+  // Draws: the sky, the sprites beyond a flat layer, the flat layers, the ring (one draw per
+  // impostor set: each set is its own texture array), then the sprites in the camera's band in
+  // one instanced call (the layers without the sprites' bent-normal term). The ring holds
+  // sprite clouds of the camera's band, so it goes where they go: in front of the flat layers,
+  // as when every cloud is drawn as sprites (a distant cumulus top in front of an overcast deck
+  // above the horizon).
   const Target target = screen(cam, sun);
   submit(target, 0, 0, m.texture, true, Shading::plain);  // the sky
-  // The first flat layer lies over nothing but the uniform sky: it is composited with the sky
-  // in its shader and written without blending, which spares llvmpipe reading and blending the
-  // frame under it (0.1-0.8 ms of a 1280x720 frame under d400's deck; docs/PERFORMANCE.md).
+  submit(target, first_sprite, beyond, m.texture, false, Shading::bent_normal);
+  // The first flat layer lies over nothing but the uniform sky (unless sprites beyond it were
+  // drawn on its side of the horizon): it is composited with the sky in its shader and written
+  // without blending, which spares llvmpipe reading and blending the frame under it (0.1-0.8 ms
+  // of a 1280x720 frame under d400's deck; docs/PERFORMANCE.md).
   std::size_t first = 0;
-  bool over_sky = m.first_layer_over_sky;
+  bool over_sky = m.first_layer_over_sky && !beyond_on_side[first_layer_above ? 1 : 0];
   for (const auto& [shading, count] : layer_runs) {
     std::size_t n = count;
     if (over_sky) {  // its first instance alone
@@ -1108,7 +1149,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   }
   submit_ring(target, 0, ring_vertex_count[0], m.imp_tex[m.front]);
   submit_ring(target, ring_vertex_count[0], ring_vertex_count[1], m.imp_tex[back]);
-  submit(target, first, m.buffer.size() / 17 - first, m.texture, false, Shading::bent_normal);
+  submit(target, first_sprite + beyond, m.buffer.size() / 17 - first_sprite - beyond, m.texture, false,
+         Shading::bent_normal);
   glFinish();
   stats.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   stats.sprites = items.size();
@@ -1154,6 +1196,8 @@ void SpriteRenderer::set_merge_flat_layers(bool merge) { impl_->merge_layers = m
 void SpriteRenderer::set_trim_sprites(bool trim) { impl_->trim_sprites = trim; }
 
 void SpriteRenderer::set_first_layer_over_sky(bool over_sky) { impl_->first_layer_over_sky = over_sky; }
+
+void SpriteRenderer::set_layer_views(LayerViews views) { impl_->layer_views = views; }
 
 void SpriteRenderer::set_trim_ring(bool trim) { impl_->trim_ring = trim; }
 

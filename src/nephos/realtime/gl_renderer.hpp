@@ -107,6 +107,15 @@ class SpriteRenderer {
   /// composited with the sky in its shader and written without blending (default) or blended
   /// like the others (for comparison: the frames agree to the rounding of the 8-bit blend).
   void set_first_layer_over_sky(bool over_sky);
+  /// Which of a flat layer's two baked views a pixel shows (sprite_textures.hpp): `automatic`
+  /// (default) blends the vertical view into the 45-degree one by the pixel's elevation (the
+  /// vertical one straight overhead or below, the 45-degree one from 45 degrees to the horizon)
+  /// and draws a frame whose every ray is more than 45 degrees from the vertical on the layer's
+  /// side with a shader that reads the 45-degree view alone; `blended` always uses the blending
+  /// shader; `vertical` and `slant` show one view everywhere. All but `automatic` are for
+  /// comparison (`blended` gives the same frames).
+  enum class LayerViews { automatic, blended, vertical, slant };
+  void set_layer_views(LayerViews views);
   /// Whether each impostor is drawn over only the columns of its texture that hold clouds
   /// (default; ring_columns columns, each from its lowest to its highest non-transparent texel,
   /// read back after the impostor is rendered) or over its whole quad (for comparison: the
@@ -147,8 +156,9 @@ class SpriteRenderer {
   Target screen(const Camera& camera, const SunLight& sun) const;
   /// Which shader a draw uses: flat (impostor quads, particles), sprites with the bent-normal
   /// diffuse term, a flat layer (faded to its mean far out), or two flat layers of one type
-  /// composited in one pass.
-  enum class Shading { plain, bent_normal, sheet, layer_pair };
+  /// composited in one pass; the _slant variants of the last two for frames whose every ray is
+  /// more than 45 degrees from the vertical, which see only the layers' 45-degree view.
+  enum class Shading { plain, bent_normal, sheet, layer_pair, sheet_slant, layer_pair_slant };
   /// Uploads instances [first, first + count) of the buffer and draws them in one instanced call
   /// with `shading`, blended over what `target` holds; with `over_sky`, flat layers drawn over
   /// nothing but the cleared sky: composited with the sky colour in their shader and written

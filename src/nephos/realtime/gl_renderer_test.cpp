@@ -344,6 +344,51 @@ TEST(SpriteRendererGl, FlatLayerFadesToItsMeanWhereItsTexelsAreSmallerThanAPixel
   EXPECT_GT(top_sky, 20);
 }
 
+TEST(SpriteRendererGl, FlatLayerViewsFollowTheElevation) {
+  // A flat layer's texture holds two views of its slab (sprite_textures.hpp): a pixel shows the
+  // vertical one straight overhead, blended into the 45-degree one by sin^2 of its zenith
+  // angle, and the 45-degree one from 45 degrees to the horizon. Cirrus (optical depth ~1.2,
+  // where the two views' opacities differ most) 4.6 km above the camera.
+  CloudRecipe r;
+  r.layers.push_back({SpriteCloudType::cirrus, 1, 7000, 8000, 8});
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const CloudField field(r, 7, {0, 0, 2400});
+  constexpr int w = 160, h = 160;
+  SpriteRenderer renderer(w, h, 7);
+  auto frame = [&](const Camera& cam, SpriteRenderer::LayerViews views) {
+    renderer.set_layer_views(views);
+    renderer.draw(field, cam, sun, true, false);
+    return renderer.read_pixels();
+  };
+  using V = SpriteRenderer::LayerViews;
+  // Level (every ray below 34 degrees): the 45-degree view everywhere; the automatic choice of
+  // the shader that reads it alone changes nothing.
+  const Camera level{{0, 0, 2400}, {1, 0, 0.05}, {0, 0, 1}, 60};
+  const auto automatic = frame(level, V::automatic);
+  EXPECT_EQ(frame_diff(automatic, frame(level, V::blended), 0).max, 0);
+  EXPECT_EQ(frame_diff(automatic, frame(level, V::slant), 0).max, 0);
+  EXPECT_GT(frame_diff(automatic, automatic, 0).from_sky, 20) << "the layer is in view";
+  // Straight up: within 3 degrees of the zenith the 45-degree view weighs at most 2 sin^2 3 =
+  // 0.55 %, 1.4 levels of a full-range difference; the vertical view differs from the 45-degree
+  // one there by its thinner column (Beer-Lambert along a path 1 / sqrt 2 as long).
+  const Camera up{{0, 0, 2400}, {0, 0, 1}, {1, 0, 0}, 60};
+  const auto a = frame(up, V::automatic), v = frame(up, V::vertical), s = frame(up, V::slant);
+  const double pixel = 2 * std::tan(M_PI / 6) / h;  // tangent per pixel
+  const int reach = static_cast<int>(std::tan(3 * M_PI / 180) / pixel);
+  int to_vertical = 0;
+  double to_slant = 0;
+  std::size_t n = 0;
+  for (int y = h / 2 - reach; y < h / 2 + reach; ++y)
+    for (int x = w / 2 - reach; x < w / 2 + reach; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const std::size_t i = (static_cast<std::size_t>(y) * w + x) * 4 + c;
+        to_vertical = std::max(to_vertical, std::abs(a[i] - v[i]));
+        to_slant += std::abs(a[i] - s[i]), ++n;
+      }
+  EXPECT_LE(to_vertical, 2);
+  EXPECT_GT(to_slant / static_cast<double>(n), 3.0) << "the views differ overhead";
+}
+
 TEST(SpriteRendererGl, ImpostorRingIsInFrontOfTheFlatLayersLikeTheSprites) {
   // The ring holds sprite clouds, and sprite clouds are drawn in front of the flat layers (a
   // distant cumulus top rises in front of an overcast deck). Every draw is composited "over"
@@ -524,6 +569,60 @@ TEST(SpriteRendererGl, TrimmedRingMatchesTheWholeQuads) {
       EXPECT_GT(d.from_sky, 64) << "clouds in view";
     }
   }
+}
+
+TEST(SpriteRendererGl, CloudsBeyondAFlatLayerAreBehindIt) {
+  // Seen from above a deck, clouds below it are behind it: every ray from the camera to them
+  // crosses the deck's plane. An opaque low stratus deck at 2800 m over d300's cumulus and
+  // stratocumulus (<= 2500 m), camera at 3500 m looking down: where the sprites alone would
+  // show, the whole scene may differ from the deck alone only through the deck's breaks (a
+  // few per cent of its area), with the impostor ring and without. Drawn after the deck, as
+  // before 2026-11-25, they showed wherever they were (every sprite pixel).
+  CloudRecipe clouds = recipe_from_code(parse_weather_code("d300")), deck, both = clouds;
+  deck.layers.push_back({SpriteCloudType::low_stratus, 1, 2800, 3000, 8});
+  both.layers.push_back(deck.layers.back());
+  const glm::dvec3 eye{0, 0, 3500};
+  const Camera cam{eye, {1, 0, -0.35}, {0, 0, 1}, 60};
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  for (const bool impostors : {false, true}) {
+    std::vector<std::uint8_t> frame[3];  // clouds alone, deck alone, both
+    const CloudRecipe* recipes[3] = {&clouds, &deck, &both};
+    std::size_t ring_sprites = 0;
+    for (int k = 0; k < 3; ++k) {
+      SpriteRenderer renderer(320, 180, 3);
+      CloudField field(*recipes[k], 3, eye);
+      field.advance_time(0);
+      field.follow_camera(eye, cam.forward);
+      const FrameStats st = renderer.draw(field, cam, sun, true, impostors);
+      if (k == 0) ring_sprites = field.sprite_count() - st.sprites;
+      if (k == 2) {
+        EXPECT_EQ(st.sprites, field.sprite_count()) << "no sprite beyond the deck in the ring";
+      }
+      frame[k] = renderer.read_pixels();
+    }
+    if (impostors) {
+      EXPECT_GT(ring_sprites, 100u) << "without the deck the ring holds clouds";
+    }
+    const auto sky = SpriteRenderer::sky_colour();
+    std::size_t sprite_px = 0, shown = 0;
+    for (std::size_t i = 0; i < frame[0].size(); i += 4) {
+      bool sprite = false, differs = false;
+      for (std::size_t c = 0; c < 3; ++c) {
+        sprite |= std::abs(frame[0][i + c] - sky[c]) > 8;
+        differs |= std::abs(frame[2][i + c] - frame[1][i + c]) > 8;
+      }
+      sprite_px += sprite, shown += sprite && differs;
+    }
+    ASSERT_GT(sprite_px, 2000u) << "clouds below the camera in view";
+    EXPECT_LT(shown, sprite_px / 10) << "impostors " << impostors << ": of " << sprite_px;
+  }
+  // Crossing the deck changes which sprites may be in the impostors: the ring is made again.
+  CloudField field(both, 3, {0, 0, 2400});
+  field.advance_time(0);
+  SpriteRenderer renderer(160, 90, 3);
+  EXPECT_EQ(renderer.draw(field, {{0, 0, 2400}, {1, 0, 0}, {0, 0, 1}, 60}, sun, true, true).impostor_updates, 8);
+  EXPECT_EQ(renderer.draw(field, {{0, 0, 2420}, {1, 0, 0}, {0, 0, 1}, 60}, sun, true, true).impostor_updates, 0);
+  EXPECT_EQ(renderer.draw(field, {{0, 0, 2900}, {1, 0, 0}, {0, 0, 1}, 60}, sun, true, true).impostor_updates, 8);
 }
 
 TEST(SpriteRendererGl, ImpostorRingLivesInTheDriftingAir) {
