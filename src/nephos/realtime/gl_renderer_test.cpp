@@ -362,12 +362,28 @@ TEST(SpriteRendererGl, FlatLayerViewsFollowTheElevation) {
   };
   using V = SpriteRenderer::LayerViews;
   // Level (every ray below 34 degrees): the 45-degree view everywhere; the automatic choice of
-  // the shader that reads it alone changes nothing.
+  // the shader that reads it alone changes nothing (mix(a, b, 1) is b).
   const Camera level{{0, 0, 2400}, {1, 0, 0.05}, {0, 0, 1}, 60};
   const auto automatic = frame(level, V::automatic);
   EXPECT_EQ(frame_diff(automatic, frame(level, V::blended), 0).max, 0);
   EXPECT_EQ(frame_diff(automatic, frame(level, V::slant), 0).max, 0);
   EXPECT_GT(frame_diff(automatic, automatic, 0).from_sky, 20) << "the layer is in view";
+  {  // the same for d400's altostratus pair from 8000 ft (test E)
+    CloudRecipe deck = recipe_from_code(parse_weather_code("d400"));
+    std::erase_if(deck.layers, [](const CloudLayerRecipe& l) { return l.type != SpriteCloudType::altostratus; });
+    const CloudField pair(deck, 7, {0, 0, 2438});
+    SpriteRenderer r2(w, h, 7);
+    const Camera ahead{{0, 0, 2438}, {1, 0, -0.05}, {0, 0, 1}, 60};
+    std::vector<std::uint8_t> f[2];
+    for (const auto views : {V::automatic, V::blended}) {
+      r2.set_layer_views(views);
+      r2.draw(pair, ahead, sun, true, false);
+      f[views == V::blended] = r2.read_pixels();
+    }
+    EXPECT_EQ(frame_diff(f[0], f[1], 0).max, 0);
+    EXPECT_GT(frame_diff(f[0], f[0], 0).from_sky, 20) << "the deck is in view";
+  }
+  renderer.make_current();
   // Straight up: within 3 degrees of the zenith the 45-degree view weighs at most 2 sin^2 3 =
   // 0.55 %, 1.4 levels of a full-range difference; the vertical view differs from the 45-degree
   // one there by its thinner column (Beer-Lambert along a path 1 / sqrt 2 as long).
