@@ -53,16 +53,20 @@ struct Flight {
   }
 };
 
-// Test E (200 clouds, sort-optimised) with frames alternating between two renderers, one with
-// the impostor ring and one drawing every sprite, each flying its own copy of the same flight:
-// the ratio of the two means is then measured over the same minutes, so the VM's slow and fast
-// stretches (seconds to minutes long) fall on both alike. Which renderer draws first alternates
-// too. Each renderer first draws one untimed frame, then starts from a fresh ring, as every case
-// of the table does: llvmpipe compiles a shader variant on its first use (~30 ms for the
-// impostor renderer's, ~20 ms for the every-sprite renderer's), a once-per-process cost that the
-// table's cases pay only in the first one. Returns {impostors, every sprite} frame times [ms].
+// Test E (200 clouds, sort-optimised) in blocks of `block` frames alternating between two
+// renderers, one with the impostor ring and one drawing every sprite, each flying its own copy
+// of the same flight: the ratio of the two means is then measured over the same minutes, so the
+// VM's slow and fast stretches (seconds to minutes long) fall on both alike. Which renderer
+// starts a round alternates too. Every frame is timed; a block's first frame runs on caches the
+// other renderer's frames have evicted (and its context just made current), which cost both
+// renderers ~0.2 ms per frame when they alternated frame by frame (docs/PERFORMANCE.md), a cost
+// no application drawing with one renderer pays; in blocks it falls on one frame in `block`.
+// Each renderer first draws one untimed frame, then starts from a fresh ring, as every case of
+// the table does: llvmpipe compiles a shader variant on its first use (~30 ms for the impostor
+// renderer's, ~20 ms for the every-sprite renderer's), a once-per-process cost that the table's
+// cases pay only in the first one. Returns {impostors, every sprite} frame times [ms].
 std::array<std::vector<double>, 2> paired_test_e(const FlyBenchOptions& o, std::uint64_t seed, bool clustered,
-                                                 const realtime::SunLight& sun) {
+                                                 const realtime::SunLight& sun, int block) {
   std::array<std::unique_ptr<realtime::SpriteRenderer>, 2> renderers;
   std::array<std::unique_ptr<Flight>, 2> flights;
   for (std::size_t w = 0; w < 2; ++w) {
@@ -73,11 +77,12 @@ std::array<std::vector<double>, 2> paired_test_e(const FlyBenchOptions& o, std::
     renderers[w]->set_impostor_radius(8000);  // a fresh ring
   }
   std::array<std::vector<double>, 2> ms;
-  for (int frame = 0; frame < o.frames; ++frame)
+  for (int first = 0, round = 0; first < o.frames; first += block, ++round)
     for (int k = 0; k < 2; ++k) {
-      const auto which = static_cast<std::size_t>((frame + k) % 2);  // 0: impostors
+      const auto which = static_cast<std::size_t>((round + k) % 2);  // 0: impostors
       renderers[which]->make_current();
-      ms[which].push_back(flights[which]->frame(frame, *renderers[which], sun, true, which == 0));
+      for (int frame = first; frame < std::min(first + block, o.frames); ++frame)
+        ms[which].push_back(flights[which]->frame(frame, *renderers[which], sun, true, which == 0));
     }
   return ms;
 }
@@ -125,12 +130,14 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
         "sprite {:.1f} / {:.1f} ms: impostors {:.2f}x faster (goal 3x); p95 goal 33 ms\n",
         c ? "clustered" : "spread", e_mean[c][1], e_p95[c][1], e_mean[c][0], e_p95[c][0], e_mean[c][0] / e_mean[c][1]);
   for (int c = 0; c < 2 && o.tests.find('E') != std::string::npos; ++c) {
-    const auto ms = paired_test_e(o, seed, c == 1, sun);
+    const auto ms = paired_test_e(o, seed, c == 1, sun, o.paired_block);
     std::cout << fmt::format(
-        "test E (200 clouds, {}, sort-optimised), frames alternating between the two: impostors {:.1f} ms mean / "
+        "test E (200 clouds, {}, sort-optimised), blocks of {} frame{} alternating between the two: impostors {:.1f} "
+        "ms "
+        "mean / "
         "{:.1f} ms p95, every sprite {:.1f} / {:.1f} ms: impostors {:.2f}x faster (goal 3x)\n",
-        c ? "clustered" : "spread", mean(ms[0]), percentile(ms[0], 0.95), mean(ms[1]), percentile(ms[1], 0.95),
-        mean(ms[1]) / mean(ms[0]));
+        c ? "clustered" : "spread", o.paired_block, o.paired_block == 1 ? "" : "s", mean(ms[0]),
+        percentile(ms[0], 0.95), mean(ms[1]), percentile(ms[1], 0.95), mean(ms[1]) / mean(ms[0]));
   }
   renderer.make_current();
   if (!o.plot.empty()) {

@@ -12,6 +12,8 @@ struct FlyBenchOptions {
   std::string tests = "ABCDE";  ///< which of tests A-E to run (letters)
   int width = 1280, height = 720;
   std::string plot = "out/bench_fly.png";  ///< bar plot of p95 frame time per case ("" = none)
+  /// Test E's paired measure: frames per block of each renderer in turn (1: frame by frame).
+  int paired_block = 30;
 };
 
 int run_fly_bench(const FlyBenchOptions& options, std::uint64_t seed);

@@ -648,8 +648,12 @@ class Bench(unittest.TestCase):
             r = run("bench", "fly", "--frames", "3", "--plot", Path(d) / "plot.png")
             self.assertEqual(r.returncode, 0, r.stderr)
             self.assertEqual((Path(d) / "plot.png").read_bytes()[:4], b"\x89PNG")
-        for anchor in ("p95 ms", "p99 ms", "CPU load", "200", "CPU: ", "built for"):
+        for anchor in ("p95 ms", "p99 ms", "CPU load", "200", "CPU: ", "built for",
+                       "blocks of 30 frames alternating between the two"):
             self.assertIn(anchor, r.stdout)
+        bad = run("bench", "fly", "--frames", "2", "--paired-block", "0", "--plot", "")
+        self.assertNotEqual(bad.returncode, 0)
+        self.assertIn("--paired-block", bad.stderr)
 
     def test_fly_bench_test_selection(self):
         r = run("bench", "fly", "--frames", "2", "--tests", "B", "--plot", "")

@@ -850,6 +850,11 @@ int main(int argc, char** argv) {
   bench_fly->add_option("--tests", fbo.tests, "Which of the thesis's tests A-E to run (letters, e.g. E)")
       ->capture_default_str();
   bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
+  bench_fly
+      ->add_option("--paired-block", fbo.paired_block,
+                   "Test E's paired measure: frames per block of each renderer in turn (1: frame by frame)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   bench::ParticlesBenchOptions pbo;
   auto* bench_part =
       bench->add_subcommand("particles", "Particle generation rate and frame times, with and without LOD");
