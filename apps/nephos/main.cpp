@@ -846,7 +846,11 @@ int main(int argc, char** argv) {
   bench_render->add_flag("--quick", rbo.quick, "Smaller images (for CI smoke runs); figures not comparable");
   bench::FlyBenchOptions fbo;
   auto* bench_fly = bench->add_subcommand("fly", "Sprite-cloud frame times for the thesis's test matrix");
-  bench_fly->add_option("--frames", fbo.frames, "Frames per case")->capture_default_str()->check(CLI::Range(1, 100000));
+  bench_fly
+      ->add_option("--frames", fbo.frames,
+                   "Frames per case (600: the thesis's 20-second tests at 30 frames per second)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
   bench_fly->add_option("--tests", fbo.tests, "Which of the thesis's tests A-E to run (letters, e.g. E)")
       ->capture_default_str();
   bench_fly->add_option("--plot", fbo.plot, "PNG bar plot of p95 frame times (empty: none)")->capture_default_str();
