@@ -251,10 +251,11 @@ struct SpriteRenderer::Impl {
   EGLDisplay dpy = EGL_NO_DISPLAY;
   EGLContext ctx = EGL_NO_CONTEXT;
   GLuint fbo = 0, colour = 0, depth = 0, vao = 0, quad = 0, instances = 0, texture = 0;
-  // Three programs from the same source: sprites with the bent-normal diffuse term, everything
-  // else (flat layers, impostor quads, particles) without it, and pairs of flat layers. On
-  // llvmpipe a shader pays for a branch's body on every fragment, which made the flat layers cost
-  // twice as much.
+  // Programs from the same source, each compiled with only what its draws need: sprites with
+  // the bent-normal diffuse term; impostor quads and particles without it; single flat layers
+  // and pairs of them, each also reading only the 45-degree view (SLANT_ONLY). On llvmpipe a
+  // shader pays for a branch's body on every fragment, which made the flat layers cost twice as
+  // much.
   struct Program {
     GLuint id = 0;
     GLint u_view_proj = -1, u_right = -1, u_up = -1, u_sprites = -1, u_sun = -1, u_front = -1, u_trim = -1,
@@ -787,14 +788,6 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // The impostor ring lives in the frame of the (drifting) air, like the clouds it holds: its
   // centre and the re-render thresholds are measured there, and its quads drift with the wind.
   const glm::dvec3 air(field.drift_offset_m(), 0.0), cam_air = cam.position - air;
-  // The sprites an impostor set holds, and the vertical extent of its images. MSFS 2004 "renders
-  // only the sections beyond the radius into impostors"; nephos decides per sprite, so a cloud
-  // across the ring has its far sprites in the impostor and its near ones drawn as sprites (in
-  // front, being nearer). MSFS moves the impostors up or down to where the clouds are; nephos
-  // fits an off-centre frustum to them per sector (within the +-10,000 ft rule's angle), so
-  // their texels and fill cover clouds, not sky. In an impostor a sprite is a billboard
-  // parallel to the image plane, at its centre's depth along the sector's axis, so the tangents
-  // of its bottom and top edges are exact: (z -+ size / 2) / depth.
   // The camera's band: between the nearest flat layers below and above it. A sprite beyond one
   // of them is hidden by it wherever the layer covers it (every ray from the camera to the
   // sprite crosses the layer's plane), so it is drawn before the flat layers, and it stays out
@@ -808,6 +801,14 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       band_lo = std::max(band_lo, l.altitude_m);
   }
   auto in_band = [&](double z) { return z > band_lo && z < band_hi; };
+  // The sprites an impostor set holds, and the vertical extent of its images. MSFS 2004 "renders
+  // only the sections beyond the radius into impostors"; nephos decides per sprite, so a cloud
+  // across the ring has its far sprites in the impostor and its near ones drawn as sprites (in
+  // front, being nearer). MSFS moves the impostors up or down to where the clouds are; nephos
+  // fits an off-centre frustum to them per sector (within the +-10,000 ft rule's angle), so
+  // their texels and fill cover clouds, not sky. In an impostor a sprite is a billboard
+  // parallel to the image plane, at its centre's depth along the sector's axis, so the tangents
+  // of its bottom and top edges are exact: (z -+ size / 2) / depth.
   auto capture = [&](int set, const glm::dvec3& centre) {
     m.band[set] = {band_lo, band_hi};
     std::vector<SpriteKey> keys;
