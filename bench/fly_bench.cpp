@@ -132,10 +132,9 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
   for (int c = 0; c < 2 && o.tests.find('E') != std::string::npos; ++c) {
     const auto ms = paired_test_e(o, seed, c == 1, sun, o.paired_block);
     std::cout << fmt::format(
-        "test E (200 clouds, {}, sort-optimised), blocks of {} frame{} alternating between the two: impostors {:.1f} "
-        "ms "
-        "mean / "
-        "{:.1f} ms p95, every sprite {:.1f} / {:.1f} ms: impostors {:.2f}x faster (goal 3x)\n",
+        "test E (200 clouds, {}, sort-optimised), blocks of {} frame{} alternating between the two: "
+        "impostors {:.1f} ms mean / {:.1f} ms p95, every sprite {:.1f} / {:.1f} ms: impostors {:.2f}x faster "
+        "(goal 3x)\n",
         c ? "clustered" : "spread", o.paired_block, o.paired_block == 1 ? "" : "s", mean(ms[0]),
         percentile(ms[0], 0.95), mean(ms[1]), percentile(ms[1], 0.95), mean(ms[1]) / mean(ms[0]));
   }

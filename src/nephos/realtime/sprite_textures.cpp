@@ -11,8 +11,9 @@
 namespace nephos::realtime {
 
 const SlabSpec& slab_spec(int type) {
-  // Optical depths at the middle of the ISCCP classes (Rossow & Schiffer 1999, visible optical
-  // depth of mid-level and high clouds): altostratus 3.6-23, cirrus below 3.6, stratus above 23.
+  // Optical depths within the ISCCP classes (Rossow & Schiffer 1999, visible optical depth):
+  // altostratus 3.6-23 (8, near its geometric middle 9), cirrus below 3.6 (1.2), stratus above
+  // 23 (30).
   // Thickness over the renderer's tile (3 km; cirrus 6 km): altostratus and cirrus about 1 km
   // and 1.5 km deep, fog 300 m. Asymmetry: water droplets 0.85, ice crystals 0.75 (visible).
   static const std::array<SlabSpec, slab_types> specs{{
