@@ -14,20 +14,17 @@
 #include <unordered_map>
 
 #include "nephos/core/error.hpp"
-#include "nephos/noise/fractal_texture.hpp"
 #include "nephos/realtime/sprite_textures.hpp"
 
 namespace nephos::realtime {
 namespace {
 
-constexpr int tex_size = sprite_texture_size;
 constexpr int impostor_size = 256;   // MSFS 2004: eight 256 x 256 impostors
 constexpr int crossfade_frames = 8;  // frames of the crossfade between two impostor sets
 // A ring vertex: the quad corner (the octagon mesh's 3 floats) and the impostor quad's 17
 // instance floats, all per vertex, so that every sector's trimmed columns go in one draw.
 constexpr std::size_t ring_vertex_floats = 20;
 constexpr std::uint32_t lod_index = 0xfffff;  // sprite index of a cloud's LOD sprite (facing-lock key)
-constexpr int texture_layers = texture_layer_count;
 
 }  // namespace
 
@@ -266,7 +263,7 @@ struct SpriteRenderer::Impl {
   bool trim_sprites = true;                        // sprites cover their layer's octagon (set_trim_sprites)
   bool first_layer_over_sky = true;                // set_first_layer_over_sky
   LayerViews layer_views = LayerViews::automatic;  // set_layer_views
-  std::array<float, 3 * texture_layers> trim{};    // SpriteTrim per texture layer (a, b, c)
+  std::array<float, 3 * texture_layer_count> trim{};   // SpriteTrim per texture layer (a, b, c)
   std::array<float, 4 * 2 * slab_types> sheet_mean{};  // mean texel of each flat-layer texture
   std::vector<std::size_t> order;
   std::uint64_t order_generation = ~0ull;  // which sprite set `order` sorts
@@ -454,7 +451,7 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   // construct used here, and 3.30 accepts (and ignores) the precision statements.
   const std::string version = std::string(api_ == GlApi::gl33 ? "#version 330 core\n" : "#version 300 es\n") +
                               "precision highp float;\nprecision highp sampler2DArray;\n#define TRIM_LAYERS " +
-                              std::to_string(texture_layers) + "\n";
+                              std::to_string(texture_layer_count) + "\n";
   auto link = [&](Impl::Program& p, const std::string& defines) {
     p.id = glCreateProgram();
     glAttachShader(p.id, compile(GL_VERTEX_SHADER, version + defines + vertex_body));
@@ -479,13 +476,15 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   // on a sheet (a uniform per layer, read by the vertex shader).
   for (int l = 0; l < 2 * slab_types; ++l) {
     std::array<double, 4> sum{};
-    for (int k = 0; k < tex_size * tex_size; ++k)
+    for (int k = 0; k < sprite_texture_size * sprite_texture_size; ++k)
       for (int c = 0; c < 4; ++c)
         sum[static_cast<std::size_t>(c)] +=
-            pixels[(static_cast<std::size_t>(first_slab_layer + l) * tex_size * tex_size + k) * 4 + c];
+            pixels[(static_cast<std::size_t>(first_slab_layer + l) * sprite_texture_size * sprite_texture_size + k) *
+                       4 +
+                   c];
     for (int c = 0; c < 4; ++c)
       m.sheet_mean[static_cast<std::size_t>(4 * l + c)] =
-          static_cast<float>(sum[static_cast<std::size_t>(c)] / (255.0 * tex_size * tex_size));
+          static_cast<float>(sum[static_cast<std::size_t>(c)] / (255.0 * sprite_texture_size * sprite_texture_size));
   }
   const std::string sheet = "#define SHEET 1\n#define FIRST_SHEET_LAYER " + std::to_string(first_slab_layer) +
                             "\n#define SHEET_LAYERS " + std::to_string(2 * slab_types) + "\n#define EDGE_FADE " +
@@ -497,14 +496,16 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   link(m.sheet_slant, sheet + "#define SLANT_ONLY 1\n");
   link(m.layer_pair_slant, sheet + "#define SLANT_ONLY 1\n#define LAYER_PAIR 1\n");
 
-  for (int l = 0; l < texture_layers; ++l) {
-    const SpriteTrim t = sprite_trim(pixels.data() + static_cast<std::size_t>(l) * tex_size * tex_size * 4, tex_size);
+  for (int l = 0; l < texture_layer_count; ++l) {
+    const SpriteTrim t =
+        sprite_trim(pixels.data() + static_cast<std::size_t>(l) * sprite_texture_size * sprite_texture_size * 4,
+                    sprite_texture_size);
     m.trim[3 * l] = t.a, m.trim[3 * l + 1] = t.b, m.trim[3 * l + 2] = t.c;
   }
   glGenTextures(1, &m.texture);
   glBindTexture(GL_TEXTURE_2D_ARRAY, m.texture);
-  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, tex_size, tex_size, texture_layers, 0, GL_RGBA, GL_UNSIGNED_BYTE,
-               pixels.data());
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_RGBA8, sprite_texture_size, sprite_texture_size, texture_layer_count, 0,
+               GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
   // No mipmaps: on llvmpipe they cost 25-40 % of the frame (measured), more than the shimmer of
   // the tiled sheets near the horizon is worth.
   glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -646,12 +647,12 @@ void SpriteRenderer::begin_pass(const Target& target, unsigned texture, bool cle
   }
   // Sprites (the bent-normal draws) over their layer's octagon; flat layers, impostor quads and
   // point sprites over the whole quad.
-  static constexpr std::array<float, 3 * texture_layers> whole_quads = [] {
-    std::array<float, 3 * texture_layers> q{};
-    for (int l = 0; l < texture_layers; ++l) q[3 * l] = q[3 * l + 1] = 1, q[3 * l + 2] = 2;
+  static constexpr std::array<float, 3 * texture_layer_count> whole_quads = [] {
+    std::array<float, 3 * texture_layer_count> q{};
+    for (int l = 0; l < texture_layer_count; ++l) q[3 * l] = q[3 * l + 1] = 1, q[3 * l + 2] = 2;
     return q;
   }();
-  glUniform3fv(p.u_trim, texture_layers, trimmed ? m.trim.data() : whole_quads.data());
+  glUniform3fv(p.u_trim, texture_layer_count, trimmed ? m.trim.data() : whole_quads.data());
   if (p.u_sheet_mean >= 0) glUniform4fv(p.u_sheet_mean, 2 * slab_types, m.sheet_mean.data());
   if (p.u_view_scale >= 0) glUniform1f(p.u_view_scale, m.layer_views == LayerViews::vertical ? 0.0f : 1.0f);
   glActiveTexture(GL_TEXTURE0);
@@ -982,8 +983,9 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // the 45-degree view is 1 for every ray further from the vertical). The frustum's extreme
   // elevations lie on its boundary; it is sampled densely, with a degree to spare.
   bool steep_view[2] = {false, false};  // below, above
+  const Target target = screen(cam, sun);
   {
-    const Target t = screen(cam, sun);
+    const Target& t = target;
     const glm::dvec3 f = glm::normalize(cam.forward), r = glm::normalize(glm::cross(f, cam.up)), u = glm::cross(r, f);
     const double limit = std::sin(44.0 * M_PI / 180);
     for (int k = 0; k < 4 * 64; ++k) {
@@ -1025,11 +1027,11 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       const double far_ratio = behind ? (behind->altitude_m - cam.position.z) / (l->altitude_m - cam.position.z) : 0.0;
       // Distance fade (fragment shader): a pixel's footprint along the view on a sheet dh below or
       // above the camera, at horizontal distance D, is D^2 theta / |dh| (theta: the pixel's angle)
-      // or D_tiles^2 tile_m theta / |dh| in tiles; in texels times tex_size. The texel fades
+      // or D_tiles^2 tile_m theta / |dh| in tiles; in texels times sprite_texture_size. The texel fades
       // to the mean from fade_from to fade_to texels per pixel: fade = D_tiles^2 scale - offset.
       constexpr double fade_from = 1, fade_to = 4;
       const double theta = 2 * std::tan(0.5 * cam.fov_deg * M_PI / 180) / h_;
-      const double scale = st.tile_m * tex_size * theta /
+      const double scale = st.tile_m * sprite_texture_size * theta /
                            (std::max(std::abs(l->altitude_m - cam.position.z), 1.0) * (fade_to - fade_from));
       // The slab seen from below (the camera under the layer) or from above.
       const int layer = first_slab_layer + 2 * st.type + (above ? 0 : 1);
@@ -1129,7 +1131,6 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
   // sprite clouds of the camera's band, so it goes where they go: in front of the flat layers,
   // as when every cloud is drawn as sprites (a distant cumulus top in front of an overcast deck
   // above the horizon).
-  const Target target = screen(cam, sun);
   submit(target, 0, 0, m.texture, true, Shading::plain);  // the sky
   submit(target, first_sprite, beyond, m.texture, false, Shading::bent_normal);
   // The first flat layer lies over nothing but the uniform sky (unless sprites beyond it were
