@@ -113,7 +113,10 @@ std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const
       for (int i = 0; i < n; ++i) {
         const earth::Geodetic g = earth::geodetic(cubes.front().texel_direction(f, i, j) * earth::radius_m);
         for (std::size_t t = 0; t < types.size(); ++t) {
-          const float v = weather::sample_bilinear(masks.grid, masks[types[t]], g.lat_deg, g.lon_deg);
+          // Bicubic, not bilinear: a threshold on a bilinear field draws the grid's cells (boxes
+          // of 2.5 degrees from the embedded GFS sample); the bicubic one keeps the mask values at
+          // the nodes and within each cell's range, with round edges (weather::sample_bicubic).
+          const float v = weather::sample_bicubic(masks.grid, masks[types[t]], g.lat_deg, g.lon_deg);
           cubes[t].texel(f, i, j) = std::isnan(v) ? 0.0f : v;
         }
       }

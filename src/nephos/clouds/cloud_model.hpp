@@ -87,8 +87,8 @@ struct CloudModelParams {
   CloudTypeParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
 };
 
-/// The weather masks of `types` resampled onto n x n cube maps (bilinear from the lat-lon
-/// grid), one per type in order.
+/// The weather masks of `types` resampled onto n x n cube maps (bicubic from the lat-lon grid,
+/// weather::sample_bicubic), one per type in order.
 std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const std::vector<CloudType>& types, int n);
 
 /// One cloud type ready to evaluate: textures, displacement maps, mask, calibrated constants.
