@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 #include "nephos/core/error.hpp"
@@ -74,22 +75,44 @@ float* WeatherGrid::level_data(Field f, int k) {
   return data_[idx(f)].data() + index(k, 0, 0);
 }
 
-float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg) {
+namespace {
+// The grid cell that holds (lat, lon): its south-west node (j0, i0) and the point's position in
+// it (wy, wx in [0, 1]); false outside a regional grid. Latitudes beyond the outer rows are
+// clamped to them; on global grids longitudes wrap (the last cell joins the last column to the
+// first).
+struct Cell {
+  int j0 = 0, i0 = 0;
+  double wy = 0, wx = 0;
+};
+bool locate_cell(const LatLonGrid& g, double lat_deg, double lon_deg, Cell& c) {
   const double fy = std::clamp((lat_deg - g.lat0_deg) / g.dlat_deg, 0.0, static_cast<double>(g.nlat - 1));
-  const int j0 = std::min(static_cast<int>(fy), g.nlat - 2);
-  const double wy = fy - j0;
-  double fx = earth::wrap_lon_360(lon_deg - g.lon0_deg) / g.dlon_deg;
-  int i0, i1;
+  c.j0 = std::min(static_cast<int>(fy), g.nlat - 2);
+  c.wy = fy - c.j0;
+  const double fx = earth::wrap_lon_360(lon_deg - g.lon0_deg) / g.dlon_deg;
   if (g.wraps()) {
-    i0 = static_cast<int>(fx) % g.nlon;
-    i1 = (i0 + 1) % g.nlon;
-    fx -= std::floor(fx);
-  } else {
-    if (fx > g.nlon - 1 + 1e-9) return std::numeric_limits<float>::quiet_NaN();
-    i0 = std::min(static_cast<int>(fx), g.nlon - 2);
-    i1 = i0 + 1;
-    fx -= i0;
+    c.i0 = static_cast<int>(fx) % g.nlon;
+    c.wx = fx - std::floor(fx);
+    return true;
   }
+  if (fx > g.nlon - 1 + 1e-9) return false;
+  c.i0 = std::min(static_cast<int>(fx), g.nlon - 2);
+  c.wx = fx - c.i0;
+  return true;
+}
+
+// The Keys (1981) cubic convolution weights, a = -1/2, of the nodes at -1, 0, 1, 2 for a point at
+// t in [0, 1] between nodes 0 and 1. They sum to 1.
+std::array<double, 4> keys_weights(double t) {
+  const double t2 = t * t, t3 = t2 * t;
+  return {0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2)};
+}
+}  // namespace
+
+float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg) {
+  Cell c;
+  if (!locate_cell(g, lat_deg, lon_deg, c)) return std::numeric_limits<float>::quiet_NaN();
+  const int j0 = c.j0, i0 = c.i0, i1 = g.wraps() ? (i0 + 1) % g.nlon : i0 + 1;
+  const double wy = c.wy, fx = c.wx;
   auto at = [&](int j, int i) {
     return static_cast<double>(
         field[static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nlon) + static_cast<std::size_t>(i)]);
@@ -99,48 +122,26 @@ float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, doub
   return static_cast<float>(v);
 }
 
-namespace {
-// The Keys (1981) cubic convolution weights, a = -1/2, of the nodes at -1, 0, 1, 2 for a point at
-// t in [0, 1] between nodes 0 and 1. They sum to 1.
-std::array<double, 4> keys_weights(double t) {
-  const double t2 = t * t, t3 = t2 * t;
-  return {0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t), 0.5 * (t3 - t2)};
-}
-}  // namespace
-
 float sample_bicubic(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg) {
-  // The cell and the weights within it as sample_bilinear() finds them.
-  const double fy = std::clamp((lat_deg - g.lat0_deg) / g.dlat_deg, 0.0, static_cast<double>(g.nlat - 1));
-  const int j0 = std::min(static_cast<int>(fy), g.nlat - 2);
-  const double wy = fy - j0;
-  double fx = earth::wrap_lon_360(lon_deg - g.lon0_deg) / g.dlon_deg;
-  int i0;
-  if (g.wraps()) {
-    i0 = static_cast<int>(fx) % g.nlon;
-    fx -= std::floor(fx);
-  } else {
-    if (fx > g.nlon - 1 + 1e-9) return std::numeric_limits<float>::quiet_NaN();
-    i0 = std::min(static_cast<int>(fx), g.nlon - 2);
-    fx -= i0;
-  }
-  auto column = [&](int i) {
-    if (g.wraps()) return ((i % g.nlon) + g.nlon) % g.nlon;
-    return std::clamp(i, 0, g.nlon - 1);
-  };
+  Cell c;
+  if (!locate_cell(g, lat_deg, lon_deg, c)) return std::numeric_limits<float>::quiet_NaN();
+  // Nodes beyond the outer rows (and a regional grid's outer columns) repeat the outer one.
+  auto column = [&](int i) { return g.wraps() ? ((i % g.nlon) + g.nlon) % g.nlon : std::clamp(i, 0, g.nlon - 1); };
   auto at = [&](int j, int i) {
     return static_cast<double>(field[static_cast<std::size_t>(std::clamp(j, 0, g.nlat - 1)) *
                                          static_cast<std::size_t>(g.nlon) +
                                      static_cast<std::size_t>(column(i))]);
   };
-  const std::array<double, 4> wx = keys_weights(fx), wyk = keys_weights(wy);
+  const std::array<double, 4> wx = keys_weights(c.wx), wy = keys_weights(c.wy);
   double v = 0;
   for (int b = 0; b < 4; ++b) {
     double row = 0;
-    for (int a = 0; a < 4; ++a) row += wx[static_cast<std::size_t>(a)] * at(j0 - 1 + b, i0 - 1 + a);
-    v += wyk[static_cast<std::size_t>(b)] * row;
+    for (int a = 0; a < 4; ++a) row += wx[static_cast<std::size_t>(a)] * at(c.j0 - 1 + b, c.i0 - 1 + a);
+    v += wy[static_cast<std::size_t>(b)] * row;
   }
   if (std::isnan(v)) return sample_bilinear(g, field, lat_deg, lon_deg);
-  const double c00 = at(j0, i0), c10 = at(j0, i0 + 1), c01 = at(j0 + 1, i0), c11 = at(j0 + 1, i0 + 1);
+  // Within the cell's corner range: no overshoot (ringing) next to a sharp change.
+  const double c00 = at(c.j0, c.i0), c10 = at(c.j0, c.i0 + 1), c01 = at(c.j0 + 1, c.i0), c11 = at(c.j0 + 1, c.i0 + 1);
   const double lo = std::min(std::min(c00, c10), std::min(c01, c11)), hi = std::max(std::max(c00, c10), std::max(c01, c11));
   return static_cast<float>(std::clamp(v, lo, hi));
 }
