@@ -128,9 +128,9 @@ float sample_bicubic(const LatLonGrid& g, const std::vector<float>& field, doubl
   // Nodes beyond the outer rows (and a regional grid's outer columns) repeat the outer one.
   auto column = [&](int i) { return g.wraps() ? ((i % g.nlon) + g.nlon) % g.nlon : std::clamp(i, 0, g.nlon - 1); };
   auto at = [&](int j, int i) {
-    return static_cast<double>(field[static_cast<std::size_t>(std::clamp(j, 0, g.nlat - 1)) *
-                                         static_cast<std::size_t>(g.nlon) +
-                                     static_cast<std::size_t>(column(i))]);
+    return static_cast<double>(
+        field[static_cast<std::size_t>(std::clamp(j, 0, g.nlat - 1)) * static_cast<std::size_t>(g.nlon) +
+              static_cast<std::size_t>(column(i))]);
   };
   const std::array<double, 4> wx = keys_weights(c.wx), wy = keys_weights(c.wy);
   double v = 0;
@@ -142,7 +142,8 @@ float sample_bicubic(const LatLonGrid& g, const std::vector<float>& field, doubl
   if (std::isnan(v)) return sample_bilinear(g, field, lat_deg, lon_deg);
   // Within the cell's corner range: no overshoot (ringing) next to a sharp change.
   const double c00 = at(c.j0, c.i0), c10 = at(c.j0, c.i0 + 1), c01 = at(c.j0 + 1, c.i0), c11 = at(c.j0 + 1, c.i0 + 1);
-  const double lo = std::min(std::min(c00, c10), std::min(c01, c11)), hi = std::max(std::max(c00, c10), std::max(c01, c11));
+  const double lo = std::min(std::min(c00, c10), std::min(c01, c11)),
+               hi = std::max(std::max(c00, c10), std::max(c01, c11));
   return static_cast<float>(std::clamp(v, lo, hi));
 }
 

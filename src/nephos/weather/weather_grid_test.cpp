@@ -33,7 +33,9 @@ TEST(SampleBicubic, ReproducesMonotoneQuadratics) {
   // Keys' kernel (a = -1/2) is exact for polynomials of degree <= 2 (Keys 1981, eq. 27); this
   // one is monotone in both coordinates over the points sampled, so the clamp to a cell's corner
   // range never acts. Bilinear interpolation misses its curvature by up to (h/2)^2 c per axis.
-  auto f = [](double lat, double lon) { return 0.002 * (lat + 100) * (lat + 100) + 0.001 * lon * lon + 0.01 * lat * lon; };
+  auto f = [](double lat, double lon) {
+    return 0.002 * (lat + 100) * (lat + 100) + 0.001 * lon * lon + 0.01 * lat * lon;
+  };
   const auto v = field_of(global, f);
   double worst = 0, worst_bilinear = 0;
   for (double lat = 10.3; lat < 60; lat += 3.7)
