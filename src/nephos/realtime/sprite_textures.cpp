@@ -36,8 +36,14 @@ double slab_source(double tau, double asymmetry, bool from_below) {
   return (from_below ? rt.transmittance - std::exp(-tau) : rt.reflectance) / opacity;
 }
 
-std::vector<SlabTexel> bake_slab_views(const noise::Texture3D& fractal, const SlabSpec& spec, bool from_below,
-                                       int size) {
+namespace {
+// The optical depths of every texel of `spec`'s slab, the same from either side: vertical, and
+// the mean vertical depth its 45-degree path crosses.
+struct SlabDepths {
+  std::vector<double> vertical, slant;
+};
+
+SlabDepths slab_depths(const noise::Texture3D& fractal, const SlabSpec& spec, int size) {
   if (size < 1) throw ValueError("slab view size must be >= 1", {.key = "size"});
   constexpr int steps = 32;
   const double h = spec.thickness_tiles, dz = h / steps;
@@ -49,7 +55,8 @@ std::vector<SlabTexel> bake_slab_views(const noise::Texture3D& fractal, const Sl
     const double n = fractal.sample(static_cast<float>(u), static_cast<float>(spec.stretch * v), static_cast<float>(z));
     return std::max(0.0, n - spec.density_threshold);
   };
-  std::vector<double> vertical(static_cast<std::size_t>(size) * size), slant(vertical.size());
+  SlabDepths d{std::vector<double>(static_cast<std::size_t>(size) * size), {}};
+  d.slant.resize(d.vertical.size());
   double sum = 0;
   for (int y = 0; y < size; ++y)
     for (int x = 0; x < size; ++x) {
@@ -61,21 +68,32 @@ std::vector<SlabTexel> bake_slab_views(const noise::Texture3D& fractal, const Sl
         cs += extinction(u + off, v + off, z) * dz;
       }
       const std::size_t i = static_cast<std::size_t>(y) * size + x;
-      vertical[i] = cv, slant[i] = cs;
+      d.vertical[i] = cv, d.slant[i] = cs;
       sum += cv;
     }
   // Extinction per unit fractal excess, so that the vertical depth averages the spec's.
-  const double kappa = sum > 0 ? spec.mean_optical_depth * static_cast<double>(vertical.size()) / sum : 0.0;
-  std::vector<SlabTexel> out(vertical.size());
+  const double kappa = sum > 0 ? spec.mean_optical_depth * static_cast<double>(d.vertical.size()) / sum : 0.0;
+  for (std::size_t i = 0; i < d.vertical.size(); ++i) d.vertical[i] *= kappa, d.slant[i] *= kappa;
+  return d;
+}
+
+std::vector<SlabTexel> slab_views(const SlabDepths& d, const SlabSpec& spec, bool from_below) {
+  std::vector<SlabTexel> out(d.vertical.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
-    const double tau_v = kappa * vertical[i];
-    const double tau_mean = kappa * slant[i];        // the mean vertical depth the slant path crosses
+    const double tau_v = d.vertical[i];
+    const double tau_mean = d.slant[i];              // the mean vertical depth the slant path crosses
     const double tau_s = std::sqrt(2.0) * tau_mean;  // along the path: dz / sin 45
     const double a_v = -std::expm1(-tau_v), a_s = -std::expm1(-tau_s);
     out[i] = {static_cast<float>(a_v * slab_source(tau_v, spec.asymmetry, from_below)), static_cast<float>(a_v),
               static_cast<float>(a_s * slab_source(tau_mean, spec.asymmetry, from_below)), static_cast<float>(a_s)};
   }
   return out;
+}
+}  // namespace
+
+std::vector<SlabTexel> bake_slab_views(const noise::Texture3D& fractal, const SlabSpec& spec, bool from_below,
+                                       int size) {
+  return slab_views(slab_depths(fractal, spec, size), spec, from_below);
 }
 
 std::vector<std::uint8_t> bake_sprite_textures(std::uint64_t seed) {
@@ -113,9 +131,10 @@ std::vector<std::uint8_t> bake_sprite_textures(std::uint64_t seed) {
         }
     }
   // Flat layers: per type the slab seen from below, then from above, two views in each texel.
-  for (int type = 0; type < slab_types; ++type)
+  for (int type = 0; type < slab_types; ++type) {
+    const SlabDepths depths = slab_depths(tex, slab_spec(type), n);  // both sides' (integrated once)
     for (const bool from_below : {true, false}) {
-      const auto views = bake_slab_views(tex, slab_spec(type), from_below, n);
+      const auto views = slab_views(depths, slab_spec(type), from_below);
       const int layer = first_slab_layer + 2 * type + (from_below ? 0 : 1);
       for (int y = 0; y < n; ++y)
         for (int x = 0; x < n; ++x) {
@@ -124,6 +143,7 @@ std::vector<std::uint8_t> bake_sprite_textures(std::uint64_t seed) {
           q[0] = byte(s.c_vertical), q[1] = byte(s.a_vertical), q[2] = byte(s.c_slant), q[3] = byte(s.a_slant);
         }
     }
+  }
   // A soft round particle: opacity (1 - r^2)^2, smooth to zero at the rim.
   for (int y = 0; y < n; ++y)
     for (int x = 0; x < n; ++x) {
