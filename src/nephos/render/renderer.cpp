@@ -237,6 +237,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   w.idx.resize(n);
   for (std::size_t i = 0; i < n; ++i)
     if (w.in_shell[i] && w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
+  for (std::size_t j = 0; j < nr; ++j) hits[w.idx[j]].marched = true;
   if (nr == 0) return;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
@@ -450,13 +451,14 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
     const optics::OpticalProperties vis_props =
         optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
                              shell.params().effective_radius_um, optics::band("vis"));
+    std::uint64_t marched = 0;  // an integer sum: the same whatever the thread count
 #pragma omp parallel
     {
       // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
       std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
       std::vector<double> t_max(static_cast<std::size_t>(w));
       std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-#pragma omp for schedule(dynamic, 4)
+#pragma omp for schedule(dynamic, 4) reduction(+ : marched)
       for (int y = 0; y < h; ++y) {
         // A whole row marched together (rays in lockstep: see march_shell).
         sub.row_rays(sensor, y, dirs.data());
@@ -466,6 +468,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
         for (int x = 0; x < w; ++x) {
           const std::size_t px = static_cast<std::size_t>(y) * w + x;
           const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
+          marched += hit.marched;
           if (!hit.hit) continue;
           Layer& L = layers[px * ns + si];
           L.t = static_cast<float>(hit.t);
@@ -496,6 +499,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
     }
     img.seconds_per_type.emplace_back(weather::name(shell.type()),
                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    img.marched_rays_per_type.push_back(marched);
   }
 
   // Background and front-to-back compositing.
@@ -620,9 +624,12 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       }
       if (img.seconds_per_type.empty()) {
         img.seconds_per_type = sub.seconds_per_type;
+        img.marched_rays_per_type = sub.marched_rays_per_type;
       } else {
-        for (std::size_t t = 0; t < img.seconds_per_type.size(); ++t)
+        for (std::size_t t = 0; t < img.seconds_per_type.size(); ++t) {
           img.seconds_per_type[t].second += sub.seconds_per_type[t].second;
+          img.marched_rays_per_type[t] += sub.marched_rays_per_type[t];
+        }
       }
     }
   const double inv_n = 1.0 / (k * k);

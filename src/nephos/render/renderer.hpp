@@ -48,6 +48,10 @@ struct RenderImage {
   std::vector<float> cloud_fraction;                       ///< share of the pixel's rays that meet cloud
   std::vector<float> latitude_deg, longitude_deg;          ///< nearest cloud or Earth point; NaN for space
   std::vector<std::pair<std::string, double>> seconds_per_type;
+  /// Per shell, in the order of seconds_per_type: the rays marched, those whose path through
+  /// the shell the empty-space skip left possible cloud on (all sub-pixel rays counted). A
+  /// shell's time follows this count, not the field of view (bench render).
+  std::vector<std::uint64_t> marched_rays_per_type;
 };
 
 /// What one ray finds in one shell.
@@ -56,6 +60,7 @@ struct ShellHit {
   double t = 0;                  ///< distance to the first surface [m]
   earth::Vec3 position, normal;  ///< outward unit normal
   double depth_m = 0;            ///< cloud depth along the line of sight after the surface
+  bool marched = false;          ///< the empty-space skip left possible cloud on the path (every hit was)
 };
 
 /// Marches one shell along o + t d up to t_max (the Earth's surface or infinity).

@@ -26,7 +26,7 @@ std::shared_ptr<const clouds::FractalTextures> tiny_textures() {
 
 // A shell whose cloud function depends on altitude only: no fractals, mask 1, bias b:
 //   CF = b + 1 - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
-CloudShell layered_shell(double bias, double a_scale = 1.0) {
+CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f) {
   CloudTypeParams p;
   p.shell_bottom_m = 1000;
   p.shell_top_m = 3000;
@@ -42,7 +42,7 @@ CloudShell layered_shell(double bias, double a_scale = 1.0) {
   p.water_content_g_m3 = 0.01;
   p.effective_radius_um = 10;
   auto cube = std::make_shared<clouds::CubeMap<float>>(4);
-  for (auto& v : cube->data()) v = 1.0f;
+  for (auto& v : cube->data()) v = mask;
   return CloudShell(weather::CloudType::low_stratus, p, tiny_textures(), cube, std::vector<clouds::DisplacementMap>(4));
 }
 
@@ -87,6 +87,24 @@ TEST(Marcher, FirstCrossingFoundByBisection) {
   // The cloud function depends on altitude only, so the surface normal is the local vertical
   // (finite-difference gradient: error ~ h^2 CF''' / 6, negligible here).
   EXPECT_NEAR(glm::dot(h.normal, up), 1.0, 1e-6);
+}
+
+TEST(Marcher, OnlyRaysWithPossibleCloudOnTheirPathAreMarched) {
+  // bias -0.4: with the mask at 1 the cloud function reaches 0.6 mid-shell, above the
+  // threshold 0.5, so a ray down through the shell is marched and hits; with the mask at 0 it
+  // stays at most -0.4 everywhere, so the empty-space skip stops the same ray before the march.
+  // A ray pointing away from the Earth never enters the shell.
+  const earth::Vec3 up = earth::unit_from_latlon(-10, 100);
+  const earth::Vec3 o = up * (earth::radius_m + 10000);
+  const ShellHit cloudy = march_shell(layered_shell(-0.4), o, -up, 10000, 25, 12);
+  EXPECT_TRUE(cloudy.marched);
+  EXPECT_TRUE(cloudy.hit);
+  const ShellHit clear = march_shell(layered_shell(-0.4, 1.0, 0.0f), o, -up, 10000, 25, 12);
+  EXPECT_FALSE(clear.marched);
+  EXPECT_FALSE(clear.hit);
+  const ShellHit away = march_shell(layered_shell(-0.4), o, up, 1e12, 25, 12);
+  EXPECT_FALSE(away.marched);
+  EXPECT_FALSE(away.hit);
 }
 
 TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
@@ -195,6 +213,35 @@ TEST(RendererOnGfs, ASceneGivenAnotherScenesTexturesRendersAsIfItHadBakedThem) {
     ADD_FAILURE() << "textures of another size were accepted";
   } catch (const ValueError& e) {
     EXPECT_NE(std::string(e.what()).find("textures.size"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RendererOnGfs, MarchedRayCountsBoundTheCloudPixelsAndIgnoreThreads) {
+  // Every pixel whose nearest cloud is of type t was marched through t's shell, so the count
+  // of marched rays per shell is at least that many pixels, and at most every pixel (one ray
+  // each; k^2 with sub-pixel rays, summed over the sub-images). Integer sums: the same for 1
+  // and 2 threads.
+  const auto& r = real();
+  const Sensor s = Sensor::geostationary(-75.2, 80, 80);
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  set_threads(1);
+  const RenderImage a = render(r.scene, s, sun, RenderParams{}, &r.w);
+  set_threads(2);
+  const RenderImage b = render(r.scene, s, sun, RenderParams{}, &r.w);
+  RenderParams k2;
+  k2.samples_per_axis = 2;
+  const RenderImage c = render(r.scene, s, sun, k2, &r.w);
+  set_threads(0);
+  ASSERT_EQ(a.marched_rays_per_type.size(), r.scene.shells.size());
+  EXPECT_EQ(a.marched_rays_per_type, b.marched_rays_per_type);
+  for (std::size_t t = 0; t < r.scene.shells.size(); ++t) {
+    const auto type = static_cast<std::int8_t>(r.scene.shells[t].type());
+    const auto nearest = static_cast<std::uint64_t>(std::count(a.cloud_type.begin(), a.cloud_type.end(), type));
+    EXPECT_GT(nearest, 0u) << weather::name(r.scene.shells[t].type());
+    EXPECT_GE(a.marched_rays_per_type[t], nearest);
+    EXPECT_LE(a.marched_rays_per_type[t], 80u * 80u);
+    EXPECT_GT(c.marched_rays_per_type[t], 0u);
+    EXPECT_LE(c.marched_rays_per_type[t], 4u * 80u * 80u);
   }
 }
 
