@@ -24,8 +24,9 @@ std::shared_ptr<const clouds::FractalTextures> tiny_textures() {
   return t;
 }
 
-// A shell whose cloud function depends on altitude only: no fractals, mask 1, bias b:
-//   CF = b + 1 - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
+// A shell whose cloud function depends on altitude only: no fractals, a uniform mask (1 unless
+// given) m, bias b:
+//   CF = b + m - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
 CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f) {
   CloudTypeParams p;
   p.shell_bottom_m = 1000;
