@@ -470,6 +470,11 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
     p.u_under = glGetUniformLocation(p.id, "under");
     p.u_sheet_mean = glGetUniformLocation(p.id, "sheet_mean");
     p.u_view_scale = glGetUniformLocation(p.id, "view_scale");
+    // The layer textures' mean texels never change: set once, kept by the program.
+    if (p.u_sheet_mean >= 0) {
+      glUseProgram(p.id);
+      glUniform4fv(p.u_sheet_mean, 2 * slab_types, m.sheet_mean.data());
+    }
   };
   const auto pixels = bake_sprite_textures(seed);
   // Each flat-layer texture's mean texel, the value a fully filtered lookup converges to far out
@@ -653,7 +658,6 @@ void SpriteRenderer::begin_pass(const Target& target, unsigned texture, bool cle
     return q;
   }();
   glUniform3fv(p.u_trim, texture_layer_count, trimmed ? m.trim.data() : whole_quads.data());
-  if (p.u_sheet_mean >= 0) glUniform4fv(p.u_sheet_mean, 2 * slab_types, m.sheet_mean.data());
   if (p.u_view_scale >= 0) glUniform1f(p.u_view_scale, m.layer_views == LayerViews::vertical ? 0.0f : 1.0f);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D_ARRAY, texture);
