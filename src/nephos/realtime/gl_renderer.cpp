@@ -480,16 +480,8 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   // Each flat-layer texture's mean texel, the value a fully filtered lookup converges to far out
   // on a sheet (a uniform per layer, read by the vertex shader).
   for (int l = 0; l < 2 * slab_types; ++l) {
-    std::array<double, 4> sum{};
-    for (int k = 0; k < sprite_texture_size * sprite_texture_size; ++k)
-      for (int c = 0; c < 4; ++c)
-        sum[static_cast<std::size_t>(c)] +=
-            pixels[(static_cast<std::size_t>(first_slab_layer + l) * sprite_texture_size * sprite_texture_size + k) *
-                       4 +
-                   c];
-    for (int c = 0; c < 4; ++c)
-      m.sheet_mean[static_cast<std::size_t>(4 * l + c)] =
-          static_cast<float>(sum[static_cast<std::size_t>(c)] / (255.0 * sprite_texture_size * sprite_texture_size));
+    const std::array<float, 4> mean = layer_mean_texel(pixels, first_slab_layer + l);
+    std::copy(mean.begin(), mean.end(), m.sheet_mean.begin() + 4 * l);
   }
   const std::string sheet = "#define SHEET 1\n#define FIRST_SHEET_LAYER " + std::to_string(first_slab_layer) +
                             "\n#define SHEET_LAYERS " + std::to_string(2 * slab_types) + "\n#define EDGE_FADE " +

@@ -155,4 +155,17 @@ std::vector<std::uint8_t> bake_sprite_textures(std::uint64_t seed) {
   return out;
 }
 
+std::array<float, 4> layer_mean_texel(const std::vector<std::uint8_t>& pixels, int layer) {
+  constexpr std::size_t texels = static_cast<std::size_t>(sprite_texture_size) * sprite_texture_size;
+  if (layer < 0 || layer >= texture_layer_count || pixels.size() < texels * 4 * texture_layer_count)
+    throw ValueError("no texture layer " + std::to_string(layer) + " in the sprite array", {.key = "layer"});
+  const std::uint8_t* p = pixels.data() + static_cast<std::size_t>(layer) * texels * 4;
+  std::array<double, 4> sum{};
+  for (std::size_t k = 0; k < texels; ++k)
+    for (std::size_t c = 0; c < 4; ++c) sum[c] += p[4 * k + c];
+  std::array<float, 4> mean{};
+  for (std::size_t c = 0; c < 4; ++c) mean[c] = static_cast<float>(sum[c] / (255.0 * static_cast<double>(texels)));
+  return mean;
+}
+
 }  // namespace nephos::realtime

@@ -11,6 +11,7 @@
 //          below, then from above; each texel holds two views of that side, (r, g) = radiance
 //          and opacity looking along the vertical, (b, a) = the same at 45 degrees
 //   16     a soft round particle (white)
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -60,5 +61,9 @@ std::vector<SlabTexel> bake_slab_views(const noise::Texture3D& fractal, const Sl
 
 /// Every layer of the array (texture_layer_count x 64 x 64 RGBA8), deterministic from `seed`.
 std::vector<std::uint8_t> bake_sprite_textures(std::uint64_t seed);
+
+/// The mean texel of layer `layer` of `pixels` (bake_sprite_textures()'s layout), each channel
+/// in [0, 1]: the value a fully filtered lookup of that layer converges to.
+std::array<float, 4> layer_mean_texel(const std::vector<std::uint8_t>& pixels, int layer);
 
 }  // namespace nephos::realtime

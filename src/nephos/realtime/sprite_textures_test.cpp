@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
+#include <vector>
+
+#include "nephos/core/error.hpp"
 
 namespace nephos::realtime {
 namespace {
@@ -127,6 +131,25 @@ TEST(SpriteTextures, DeterministicAndPremultiplied) {
       bad += slab ? (a[i] > a[i + 1] || a[i + 2] > a[i + 3]) : (a[i] != a[i + 3] || a[i + 1] != a[i + 3]);
     EXPECT_EQ(bad, 0u) << "layer " << layer;
   }
+}
+
+TEST(SpriteTextures, LayerMeanTexelAveragesOneLayer) {
+  // A layer whose red channel is full, green alternates 0 / 255 (mean exactly 1/2), blue is 51
+  // (1/5) and alpha 0, between layers of full texels: the mean reads that layer alone.
+  const std::size_t per_layer = static_cast<std::size_t>(sprite_texture_size) * sprite_texture_size * 4;
+  std::vector<std::uint8_t> px(per_layer * texture_layer_count, 255);
+  const int layer = first_slab_layer + 1;
+  for (std::size_t k = 0; k < per_layer / 4; ++k) {
+    std::uint8_t* q = px.data() + layer * per_layer + 4 * k;
+    q[0] = 255, q[1] = k % 2 ? 255 : 0, q[2] = 51, q[3] = 0;
+  }
+  const std::array<float, 4> m = layer_mean_texel(px, layer);
+  EXPECT_EQ(m[0], 1.0f);
+  EXPECT_EQ(m[1], 0.5f);
+  EXPECT_FLOAT_EQ(m[2], 0.2f);
+  EXPECT_EQ(m[3], 0.0f);
+  EXPECT_THROW(layer_mean_texel(px, texture_layer_count), ValueError);
+  EXPECT_THROW(layer_mean_texel(std::vector<std::uint8_t>(per_layer), layer), ValueError);
 }
 
 }  // namespace nephos::realtime
