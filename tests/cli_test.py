@@ -52,6 +52,27 @@ class Info(unittest.TestCase):
             subprocess.run(["grib_copy", "-w", "typeOfLevel=surface", SAMPLE, p], check=True)
             self.assert_input_error(run("info", p), str(p), "no pressure-level fields", "orog/surface")
 
+    def test_multi_field_messages(self):
+        # NCEP packs u and v in one GRIB2 message: both fields are read (data/README.md).
+        r = run("info", SOURCE / "data" / "test" / "gfs_20110110_12z_f120_500hPa_gh_uv_multifield.grib2")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("GRIB edition 2, 2 messages holding 3 fields (0 not used by nephos)", r.stdout)
+        self.assertRegex(r.stdout, r"\n  v +northward wind +\[m s-1\] +1 level: 500 hPa")
+
+    def test_render_without_v_warns(self):
+        # A file without the northward wind still renders, but says that its wind displacement
+        # takes v as 0 instead of doing so silently.
+        with tempfile.TemporaryDirectory() as d:
+            p = Path(d) / "no_v.grib2"
+            subprocess.run(["grib_copy", "-w", "shortName!=v", SAMPLE, p], check=True)
+            r = run("render", "--weather", p, "--size", "16x16", "--texture", "32", "--out", Path(d) / "out")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn(f"{p}: no v on pressure levels; the wind displacement maps take the wind there as 0",
+                          r.stderr)
+            r = run("render", "--size", "16x16", "--texture", "32", "--out", Path(d) / "out2")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertNotIn("the wind there as 0", r.stderr)  # the embedded sample has both
+
 
 class Masks(unittest.TestCase):
     @classmethod

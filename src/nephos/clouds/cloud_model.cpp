@@ -607,6 +607,7 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
   // Wind fields (one per sampling altitude) and every displacement map they drive, the maps of
   // one wind built together (DisplacementMap::build_all shares the integration of durations).
   t0 = clock::now();
+  weather::warn_if_winds_missing(weather, "the wind displacement maps");
   std::map<double, int> wind_index;
   std::vector<std::vector<double>> hours_of_wind;
   for (CloudType t : types) {

@@ -156,6 +156,7 @@ CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weathe
   if (as > 0.25) r.layers.push_back({SpriteCloudType::altostratus, as > 0.6 ? 2 : 1, as_base, as_top, 8 * as});
   if (ci > 0.25) r.layers.push_back({SpriteCloudType::cirrus, ci > 0.6 ? 2 : 1, ci_base, ci_top, 8 * ci});
   r.clustered = cu + st > 0.45;  // like d300/d400: the sky is more than half covered
+  weather::warn_if_winds_missing(w, "the clouds' drift");
   const weather::WeatherSample s = weather::WeatherSampler(w).sample(lat_deg, lon_deg, 2000);
   r.drift_east_m_s = std::isnan(s.u_m_s) ? 0 : s.u_m_s;
   r.drift_north_m_s = std::isnan(s.v_m_s) ? 0 : s.v_m_s;

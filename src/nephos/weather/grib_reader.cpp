@@ -1,7 +1,9 @@
 // GRIB edition 1 and 2 through ecCodes. Only regular latitude-longitude grids are accepted
 // (any scanning mode, any longitude convention): each value is placed by the per-point
 // coordinates ecCodes computes, so the scanning flags can never be misread. Other grid types
-// are refused with their name.
+// are refused with their name. A GRIB2 message may hold several fields (NCEP packs u and v
+// wind in one message): every field is read (ecCodes' multi-field support), not only a
+// message's first.
 #include <eccodes.h>
 
 #include <fmt/format.h>
@@ -188,15 +190,34 @@ UtcTime time_from(long yyyymmdd, long hhmm) {
                              static_cast<int>(hhmm % 100));
 }
 
+// ecCodes keeps the position within a multi-field message per FILE*, in its default context;
+// the state is dropped when the file is done with (also on an exception), so that a later file
+// opened at the same address starts afresh. Weather files are read from one thread.
+struct MultiFieldScope {
+  FILE* file;
+  explicit MultiFieldScope(FILE* f) : file(f) {
+    static const bool on = [] {
+      codes_grib_multi_support_on(nullptr);
+      return true;
+    }();
+    (void)on;
+  }
+  ~MultiFieldScope() { codes_grib_multi_support_reset_file(nullptr, file); }
+  MultiFieldScope(const MultiFieldScope&) = delete;
+  MultiFieldScope& operator=(const MultiFieldScope&) = delete;
+};
+
+// Calls fn(handle, field number) for every field of every message, in file order.
 template <class Fn>
-void for_each_message(const std::filesystem::path& path, Fn&& fn) {
+void for_each_field(const std::filesystem::path& path, Fn&& fn) {
   auto file = open_file(path);
+  const MultiFieldScope multi(file.get());
   int count = 0;
   for (;;) {
     int err = 0;
     Handle h(codes_handle_new_from_file(nullptr, file.get(), PRODUCT_GRIB, &err));
     if (err != 0)
-      throw FormatError(fmt::format("GRIB message {} is corrupt: {}", count + 1, codes_get_error_message(err)),
+      throw FormatError(fmt::format("GRIB field {} is corrupt: {}", count + 1, codes_get_error_message(err)),
                         {.file = path.string()});
     if (!h) break;
     ++count;
@@ -253,7 +274,7 @@ class GribReader final : public WeatherReader {
       }
     };
 
-    for_each_message(path, [&](codes_handle* h, int) {
+    for_each_field(path, [&](codes_handle* h, int) {
       const std::string sn = get_string(h, "shortName");
       const std::string lt = get_string(h, "typeOfLevel");
       const long level = get_long(h, "level");
@@ -335,15 +356,18 @@ GribInventory inventory_grib(const std::filesystem::path& path) {
   GribInventory inv;
   std::map<std::string, int> skipped;
   std::set<std::string> grids;
-  for_each_message(path, [&](codes_handle* h, int) {
-    ++inv.messages;
+  std::set<long> offsets;  // the fields of one message share its offset in the file
+  for_each_field(path, [&](codes_handle* h, int) {
+    ++inv.fields;
+    offsets.insert(get_long(h, "offset"));
     inv.editions_mask |= 1 << get_long(h, "editionNumber");
     grids.insert(get_string(h, "gridType"));
     const std::string sn = get_string(h, "shortName"), lt = get_string(h, "typeOfLevel");
     const bool used = (field_for(sn) && (lt == "isobaricInhPa" || lt == "isobaricInPa")) ||
                       (sn == "tcc" && cloud_layer_for(lt)) || (sn == "orog" && lt == "surface");
-    if (!used) ++skipped[sn + "/" + lt];
+    if (!used) ++skipped[sn + "/" + lt], ++inv.unused_fields;
   });
+  inv.messages = static_cast<int>(offsets.size());
   inv.grid_types.assign(grids.begin(), grids.end());
   for (const auto& [k, n] : skipped) inv.skipped_summary.push_back(fmt::format("{} x{}", k, n));
   return inv;

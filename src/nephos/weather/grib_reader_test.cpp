@@ -195,5 +195,51 @@ TEST(RealGfsSample, HoldsWhatTheMasksNeed) {
   EXPECT_NEAR(w.value(Field::temperature, k850, 52, 102), 273.9, 0.05);          // print rounding
 }
 
+// NCEP packs u and v wind into one GRIB2 message with two fields. The test file holds two
+// messages copied byte for byte from the NOAA file in shared/data (data/README.md): gh at 500
+// hPa, and u and v at 500 hPa in one message. Reading only a message's first field would
+// lose v, as nephos did before 2026-11-27.
+TEST(MultiFieldGrib, EveryFieldOfAMessageIsRead) {
+  const auto path =
+      std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/test/gfs_20110110_12z_f120_500hPa_gh_uv_multifield.grib2";
+  const WeatherGrid w = open_weather(path);
+  ASSERT_EQ(w.level_count(), 1);
+  EXPECT_TRUE(w.has(Field::u_wind, 0));
+  EXPECT_TRUE(w.has(Field::v_wind, 0));
+  EXPECT_TRUE(missing_for_winds(w).empty());
+  // ecCodes' own tool on the same file, grib_get -l 40,255,1 (2 decimals): u 15.63, v -7.84 m/s.
+  EXPECT_NEAR(w.value(Field::u_wind, 0, 52, 102), 15.63, 0.005);  // print rounding
+  EXPECT_NEAR(w.value(Field::v_wind, 0, 52, 102), -7.84, 0.005);  // print rounding
+  // Every value as in the embedded sample, whose u and v ecCodes' grib_copy wrote as separate
+  // messages from the same NOAA file: the same packed numbers, so equal to the bit.
+  const WeatherGrid ref =
+      open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  const int k500 = 12;
+  ASSERT_EQ(ref.pressure_levels_pa()[k500], 50000.0);
+  for (Field f : {Field::geopotential_height, Field::u_wind, Field::v_wind})
+    for (int j = 0; j < w.grid().nlat; ++j)
+      for (int i = 0; i < w.grid().nlon; ++i)
+        ASSERT_EQ(w.value(f, 0, j, i), ref.value(f, k500, j, i)) << info(f).grib_short_name << " at " << j << "," << i;
+  // The inventory counts messages and fields apart.
+  const GribInventory inv = inventory_grib(path);
+  EXPECT_EQ(inv.messages, 2);
+  EXPECT_EQ(inv.fields, 3);
+  EXPECT_EQ(inv.unused_fields, 0);
+}
+
+// ecCodes keeps its place within a multi-field message per open file: reading the file again,
+// and another file after it, starts from the beginning of each.
+TEST(MultiFieldGrib, RereadingGivesTheSameFields) {
+  const auto multi =
+      std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/test/gfs_20110110_12z_f120_500hPa_gh_uv_multifield.grib2";
+  const auto single = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
+  for (int round = 0; round < 3; ++round) {
+    const WeatherGrid a = open_weather(multi);
+    EXPECT_TRUE(a.has(Field::u_wind, 0) && a.has(Field::v_wind, 0)) << "round " << round;
+    EXPECT_EQ(inventory_grib(multi).fields, 3) << "round " << round;
+    EXPECT_EQ(inventory_grib(single).fields, 179) << "round " << round;
+  }
+}
+
 }  // namespace
 }  // namespace nephos::weather

@@ -9,7 +9,7 @@ namespace {
 std::string levels_text(const WeatherGrid& w, Field f) {
   const auto ks = w.levels_of(f);
   if (ks.empty()) return "absent";
-  std::string s = fmt::format("{:2d} levels:", ks.size());
+  std::string s = fmt::format("{:2d} level{}:", ks.size(), ks.size() == 1 ? "" : "s");
   for (int k : ks) s += fmt::format(" {:g}", w.pressure_levels_pa()[static_cast<std::size_t>(k)] / 100.0);
   s += " hPa";
   if (static_cast<int>(ks.size()) < w.level_count()) {
@@ -31,16 +31,17 @@ std::string describe_weather_file(const std::filesystem::path& path) {
   const auto& m = w.metadata();
   std::string out;
   out += fmt::format("file           {}\n", path.string());
-  out += fmt::format("format         GRIB edition {}, {} messages ({} not used by nephos)\n",
+  out += fmt::format("format         GRIB edition {}, {} message{} holding {} field{} ({} not used by nephos)\n",
                      inv.editions_mask == 6 ? std::string("1+2") : std::to_string(m.grib_edition), inv.messages,
-                     inv.skipped_summary.size());
+                     inv.messages == 1 ? "" : "s", inv.fields, inv.fields == 1 ? "" : "s", inv.unused_fields);
   out += fmt::format("producer       {}\n", m.producer);
   out += fmt::format("reference time {}\n", m.reference_time.iso());
   out += fmt::format("forecast step  {:g} h\n", m.forecast_step_h);
   out += fmt::format("valid time     {}\n", m.valid_time.iso());
   out += fmt::format("grid           {}\n", w.grid().describe());
-  out += fmt::format("levels         {} isobaric levels, {:g}..{:g} hPa\n", w.level_count(),
-                     w.pressure_levels_pa().front() / 100.0, w.pressure_levels_pa().back() / 100.0);
+  out += fmt::format("levels         {} isobaric level{}, {:g}..{:g} hPa\n", w.level_count(),
+                     w.level_count() == 1 ? "" : "s", w.pressure_levels_pa().front() / 100.0,
+                     w.pressure_levels_pa().back() / 100.0);
   out += "fields on isobaric levels:\n";
   for (const auto& fi : all_fields())
     out +=

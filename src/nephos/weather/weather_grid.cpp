@@ -1,6 +1,8 @@
 #include "nephos/weather/weather_grid.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -161,6 +163,12 @@ std::vector<std::string> missing_for_masks(const WeatherGrid& w) {
 }
 std::vector<std::string> missing_for_winds(const WeatherGrid& w) {
   return missing(w, {Field::geopotential_height, Field::u_wind, Field::v_wind});
+}
+void warn_if_winds_missing(const WeatherGrid& w, std::string_view use) {
+  const auto lacks = missing_for_winds(w);
+  if (!lacks.empty())
+    spdlog::warn("{}: no {} on pressure levels; {} take the wind there as 0", w.metadata().source,
+                 fmt::join(lacks, ", "), use);
 }
 
 }  // namespace nephos::weather

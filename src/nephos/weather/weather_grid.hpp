@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "nephos/core/time.hpp"
@@ -133,5 +134,8 @@ float sample_bicubic(const LatLonGrid& g, const std::vector<float>& field, doubl
 /// Names the fields a capability needs and lacks, e.g. {"r", "w"}; empty when all are there.
 std::vector<std::string> missing_for_masks(const WeatherGrid& w);
 std::vector<std::string> missing_for_winds(const WeatherGrid& w);
+/// Warns (spdlog), naming the file and the fields, when `w` lacks a wind component or gh, which
+/// `use` (e.g. "the wind displacement maps") then takes as zero wind; silent otherwise.
+void warn_if_winds_missing(const WeatherGrid& w, std::string_view use);
 
 }  // namespace nephos::weather
