@@ -344,27 +344,35 @@ class Fly(unittest.TestCase):
 
     @staticmethod
     def read_rgb(png_path):
+        w, h, channels, rows = Fly.read_png(png_path)
+        assert channels == 3, png_path
+        return w, h, rows
+
+    @staticmethod
+    def read_png(png_path):
         import zlib
         import struct
         data = Path(png_path).read_bytes()
-        # Minimal PNG reader for our own 8-bit RGB output (filter bytes per row).
-        pos, idat, w, h = 8, b"", 0, 0
+        # Minimal PNG reader for our own 8-bit RGB or RGBA output (filter bytes per row).
+        pos, idat, w, h, channels = 8, b"", 0, 0, 0
         while pos < len(data):
             n, kind = struct.unpack(">I4s", data[pos:pos + 8])
             body = data[pos + 8:pos + 8 + n]
             if kind == b"IHDR":
                 w, h = struct.unpack(">II", body[:8])
+                channels = {2: 3, 6: 4}[body[9]]  # colour type: RGB, RGBA
             elif kind == b"IDAT":
                 idat += body
             pos += 12 + n
         raw = zlib.decompress(idat)
-        stride, prev, rows = w * 3, bytearray(w * 3), []
+        k = channels
+        stride, prev, rows = w * k, bytearray(w * k), []
         for y in range(h):
             f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
             for i in range(stride):
-                a = line[i - 3] if i >= 3 else 0
+                a = line[i - k] if i >= k else 0
                 b = prev[i]
-                c = prev[i - 3] if i >= 3 else 0
+                c = prev[i - k] if i >= k else 0
                 if f == 1: line[i] = (line[i] + a) & 255
                 elif f == 2: line[i] = (line[i] + b) & 255
                 elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
@@ -374,7 +382,28 @@ class Fly(unittest.TestCase):
                     line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
             rows.append(bytes(line))
             prev = line
-        return w, h, rows
+        return w, h, channels, rows
+
+    def test_transparent_background(self):
+        # RGBA frames whose alpha is the clouds' coverage, to composite over a map or terrain.
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "d000", "--background", "transparent")
+            w, h, channels, rows = Fly.read_png(Path(d) / "frame_0001.png")
+            self.assertEqual(channels, 4)
+            self.assertEqual(set(b for row in rows for b in row), {0})  # a clear sky: nothing
+        with tempfile.TemporaryDirectory() as d:
+            self.frames(d, "--code", "d400", "--background", "transparent")
+            w, h, channels, rows = Fly.read_png(Path(d) / "frame_0001.png")
+            alpha = [row[4 * x + 3] for row in rows for x in range(w)]
+            # The overcast deck over the upper half, clouds at the horizon, sky below it.
+            self.assertGreater(sum(a > 0 for a in alpha) / len(alpha), 0.4)
+            self.assertGreater(sum(a == 255 for a in alpha) / len(alpha), 0.1)
+            self.assertGreater(sum(a == 0 for a in alpha) / len(alpha), 0.1)
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "out"
+            Info.assert_input_error(self, run("fly", "--frames", "1", "--background", "grey", "--out", out),
+                                    "--background", "sky or transparent")
+            self.assertFalse(out.exists())
 
     def test_impostors_look_like_sprites_and_update_on_the_first_frame(self):
         with tempfile.TemporaryDirectory() as d:
@@ -568,6 +597,18 @@ class Particles(unittest.TestCase):
         self.assertEqual(rows[0].split(",")[:5], ["frame", "time_utc", "time_s", "particles", "drawn"])
         self.assertEqual(rows[2].split(",")[1:4], ["2011-01-15T12:30:00Z", "1800", "20000"])
         self.assertGreater(Fly.non_sky_fraction(None, self.out / "frame_0000.png"), 0.02)
+
+    def test_transparent_background(self):
+        # The same frame without the sky: RGBA, alpha the particles' coverage.
+        with tempfile.TemporaryDirectory() as d:
+            r = run("particles", "--count", "20000", "--frames", "1", "--size", "320x180", "--no-ply",
+                    "--background", "transparent", "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            w, h, channels, rows = Fly.read_png(Path(d) / "frame_0000.png")
+            self.assertEqual(channels, 4)
+            covered = sum(row[4 * x + 3] > 0 for row in rows for x in range(w)) / (w * h)
+            self.assertGreater(covered, 0.02)
+            self.assertLess(covered, 0.9)
 
     def test_ply_is_standard_binary_ply(self):
         import numpy as np

@@ -466,16 +466,27 @@ struct FlyOptions {
   std::string time = "2024-06-21T10:00:00Z";
   bool no_sort_opt = false;
   bool no_impostors = false;
-  double impostor_radius_km = 8;  // MSFS 2004's ring radius
-  double lod_km = 20;             // single-sprite level of detail beyond this (0: off)
-  std::string change;             // CODE@SECONDS: the weather changes to CODE at that time of the flight
-  std::string gl = "gles3";       // OpenGL ES 3.0 or desktop OpenGL 3.3 core
+  double impostor_radius_km = 8;   // MSFS 2004's ring radius
+  double lod_km = 20;              // single-sprite level of detail beyond this (0: off)
+  std::string change;              // CODE@SECONDS: the weather changes to CODE at that time of the flight
+  std::string gl = "gles3";        // OpenGL ES 3.0 or desktop OpenGL 3.3 core
+  std::string background = "sky";  // or "transparent": RGBA frames to composite over a map
   std::string out = "out/fly";
 };
 
-/// The renderer's last frame as an RGB PNG.
-void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& renderer) {
-  app::write_rgb_png(path.string(), renderer.width(), renderer.height(), renderer.read_pixels());
+/// --background: false for "sky", true for "transparent".
+bool transparent_background(const std::string& value) {
+  if (value != "sky" && value != "transparent")
+    throw ValueError("expected sky or transparent, got '" + value + "'", {.key = "--background"});
+  return value == "transparent";
+}
+
+/// The renderer's last frame as a PNG: RGB over the sky, or RGBA (straight alpha) without it.
+void write_frame_png(const fs::path& path, const realtime::SpriteRenderer& renderer, bool transparent) {
+  if (transparent)
+    io::write_png(path, renderer.width(), renderer.height(), 4, realtime::straight_alpha(renderer.read_pixels()));
+  else
+    app::write_rgb_png(path.string(), renderer.width(), renderer.height(), renderer.read_pixels());
 }
 
 // The options nephos fly and nephos view share: weather source, place, time, aircraft, GL API.
@@ -558,6 +569,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     require_range(secs[0], 0, 1e7, "--change", "the time of the change [s of flight]");
     change.emplace(realtime::recipe_from_code(realtime::parse_weather_code(o.change.substr(0, at))), secs[0]);
   }
+  const bool transparent = transparent_background(o.background);
   const realtime::CloudRecipe recipe = flight_recipe(o, time, lat, lon);
   spdlog::info("clouds from {}: {} sprite clouds", recipe.source, recipe.sprite_clouds());
   const double alt_m = o.altitude_ft * 0.3048, speed_m_s = o.speed_kt * 0.514444;
@@ -567,6 +579,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   spdlog::info("OpenGL: {} on {}", renderer.gl_version(), renderer.gl_renderer());
   renderer.set_impostor_radius(o.impostor_radius_km * 1000);
   renderer.set_single_sprite_distance(o.lod_km * 1000);
+  if (transparent) renderer.set_background(realtime::SpriteRenderer::Background::transparent);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
   realtime::ResortPolicy policy;
   const fs::path out(o.out);
@@ -589,7 +602,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     const realtime::FrameStats st = renderer.draw(field, cam, sun, sort, !o.no_impostors);
     total_ms += st.milliseconds;
     table << fmt::format("{},{:.3f},{},{}\n", f, st.milliseconds, st.sprites, st.impostor_updates);
-    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer);
+    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
     progress.advance();
   }
   table.close();
@@ -615,6 +628,7 @@ struct ParticlesOptions {
   std::string transmission = "two-stream";
   int refine = 0;  // 0: GFS cells split to <= 30 km, WRF as it is
   bool no_ply = false;
+  std::string background = "sky";  // or "transparent"
   std::string out = "out/particles";
 };
 
@@ -622,6 +636,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   if (o.count < 1) throw ValueError("must be >= 1", {.key = "--count"});
+  const bool transparent = transparent_background(o.background);
   // Per particle: its state, motion, shading, sort keys and instance data, about 256 B.
   require_memory(256.0 * static_cast<double>(o.count), "--count", fmt::format("{} particles", o.count));
   require_range(o.frame_minutes, 1e-3, 1e6, "--frame-minutes", "the time between frames [min]");
@@ -691,6 +706,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   ensure_directory(out);
   particles::write_columns_netcdf(out / "columns.nc", w, 0);
   realtime::SpriteRenderer renderer(width, height, g.seed);
+  if (transparent) renderer.set_background(realtime::SpriteRenderer::Background::transparent);
   AtomicFile csv(out / "frames.csv");
   std::ofstream table(csv.temp_path());
   table << "frame,time_utc,time_s,particles,drawn,motion_ms,lod_ms,light_ms,sort_ms,draw_ms\n";
@@ -706,7 +722,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
     table << fmt::format("{},{},{:.0f},{},{},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f}\n", f, scene.time_at(t).iso(), t,
                          scene.current().size(), tm.drawn, motion_ms, tm.lod_ms, tm.light_ms, tm.sort_ms,
                          st.milliseconds);
-    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer);
+    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
     if (!o.no_ply)
       particles::write_particles_ply(out / fmt::format("particles_{:04d}.ply", f), scene.current(), scene.shade_all(t),
                                      w, scene.time_at(t));
@@ -804,6 +820,9 @@ int main(int argc, char** argv) {
   fly->add_option("--frames", fo.frames, "Frames (30 per second of flight)")->capture_default_str();
   fly->add_flag("--no-sort-opt", fo.no_sort_opt, "Re-sort every frame instead of only when the view changed");
   fly->add_option("--change", fo.change, "CODE@SECONDS: the weather changes then (clouds form and dissipate)");
+  fly->add_option("--background", fo.background,
+                  "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
+      ->capture_default_str();
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
   FlyOptions vo;
@@ -833,6 +852,9 @@ int main(int argc, char** argv) {
   part->add_option("--refine", po.refine, "Split each weather cell NxN (0: GFS to <= 30 km cells, WRF unchanged)")
       ->capture_default_str();
   part->add_flag("--no-ply", po.no_ply, "Do not write the particle set as PLY");
+  part->add_option("--background", po.background,
+                   "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
+      ->capture_default_str();
   part->add_option("--out", po.out, "Output directory")->capture_default_str();
 
   auto* bench = app.add_subcommand("bench", "Benchmarks that print measured figures beside their anchors");

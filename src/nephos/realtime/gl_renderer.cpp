@@ -294,7 +294,8 @@ struct SpriteRenderer::Impl {
     float bottom = 1, top = -1;
   };
   std::array<std::array<ColumnSpan, ring_columns>, 8> spans[2] = {};
-  bool trim_ring = true;  // set_trim_ring
+  bool trim_ring = true;     // set_trim_ring
+  bool transparent = false;  // set_background
   GLuint ring_vao = 0, ring_vbo = 0;
   std::vector<float> ring_vertices;  // this frame's ring triangles, ring_vertex_floats each
   std::uint64_t generation = 0;      // bumps when the sprite set changes
@@ -696,7 +697,8 @@ SpriteRenderer::Target SpriteRenderer::screen(const Camera& cam, const SunLight&
   t.tan_y_low = -t.tan_y_high;
   t.tan_half_x = t.tan_y_high * w_ / h_;
   const auto sky = sky_colour();
-  t.clear = {sky[0] / 255.0f, sky[1] / 255.0f, sky[2] / 255.0f, 1.0f};
+  t.clear = impl_->transparent ? std::array<float, 4>{0, 0, 0, 0}
+                               : std::array<float, 4>{sky[0] / 255.0f, sky[1] / 255.0f, sky[2] / 255.0f, 1.0f};
   t.sun = sun.direction;
   return t;
 }
@@ -1199,6 +1201,10 @@ void SpriteRenderer::set_layer_views(LayerViews views) { impl_->layer_views = vi
 
 void SpriteRenderer::set_trim_ring(bool trim) { impl_->trim_ring = trim; }
 
+void SpriteRenderer::set_background(Background background) {
+  impl_->transparent = background == Background::transparent;
+}
+
 void SpriteRenderer::set_impostor_radius(double radius_m) {
   if (!(radius_m > 0)) throw ValueError("the impostor ring radius must be > 0 m", {.key = "impostor_radius_m"});
   impl_->ring.radius_m = radius_m;
@@ -1214,6 +1220,15 @@ std::vector<std::uint8_t> read_framebuffer_rgba(unsigned framebuffer, int width,
     std::copy_n(px.data() + static_cast<std::size_t>(height - 1 - y) * row, row,
                 out.data() + static_cast<std::size_t>(y) * row);
   return out;
+}
+
+std::vector<std::uint8_t> straight_alpha(std::vector<std::uint8_t> rgba) {
+  for (std::size_t p = 0; p + 3 < rgba.size(); p += 4) {
+    const unsigned a = rgba[p + 3];
+    for (std::size_t c = 0; c < 3; ++c)
+      rgba[p + c] = a == 0 ? 0 : static_cast<std::uint8_t>(std::min(255u, (rgba[p + c] * 255u + a / 2) / a));
+  }
+  return rgba;
 }
 
 std::vector<std::uint8_t> SpriteRenderer::read_pixels() const { return read_framebuffer_rgba(impl_->fbo, w_, h_); }

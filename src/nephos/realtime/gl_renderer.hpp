@@ -56,6 +56,10 @@ const char* name(GlApi api);
 /// RGBA8 pixels of `framebuffer` (0: the window's) of the current context, rows from the top.
 std::vector<std::uint8_t> read_framebuffer_rgba(unsigned framebuffer, int width, int height);
 
+/// Premultiplied RGBA8 (what the renderer's frames hold) to straight alpha (what PNG stores):
+/// each colour divided by its alpha, rounded to nearest and clamped to 255; a = 0 gives 0, 0, 0, 0.
+std::vector<std::uint8_t> straight_alpha(std::vector<std::uint8_t> premultiplied_rgba);
+
 /// The octagon |x| <= a, |y| <= b, |x| + |y| <= c (quad corners at +-1) outside which a sprite
 /// texture's bilinear samples are all transparent: drawn instead of the whole quad, it spares
 /// the rasteriser the transparent corners (particle trimming). All zero for a transparent texture.
@@ -121,6 +125,11 @@ class SpriteRenderer {
   /// read back after the impostor is rendered) or over its whole quad (for comparison: the
   /// pixels left out would have blended a fully transparent texel).
   void set_trim_ring(bool trim);
+  /// What lies behind the clouds: the sky colour (default; sky_colour()), or nothing, so that
+  /// a frame's alpha is the clouds' coverage and its colours are premultiplied by it, ready to
+  /// be composited over a map or terrain ("over": frame + (1 - alpha) behind; docs/realtime.md).
+  enum class Background { sky, transparent };
+  void set_background(Background background);
   /// Columns per impostor for set_trim_ring (8 texels each).
   static constexpr int ring_columns = 32;
   /// Draws point sprites (one instanced draw call), in their given order.
