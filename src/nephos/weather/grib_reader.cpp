@@ -165,15 +165,22 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
   return d;
 }
 
+// ECMWF's models (IFS, ERA5) give geopotential z [m2 s-2] where NCEP's give geopotential
+// height gh [gpm]: gh = z / g0, g0 = 9.80665 m s-2 being the standard gravity that defines the
+// geopotential metre (WMO). Either makes the levels' heights.
+constexpr double standard_gravity_m_s2 = 9.80665;
+
 // Physical conversion from the GRIB unit to the WeatherGrid unit.
 float scale_for(const std::string& short_name) {
-  if (short_name == "r" || short_name == "tcc") return 0.01f;  // percent -> fraction
+  if (short_name == "r" || short_name == "tcc") return 0.01f;                   // percent -> fraction
+  if (short_name == "z") return static_cast<float>(1 / standard_gravity_m_s2);  // m2 s-2 -> gpm
   return 1.0f;
 }
 
 std::optional<Field> field_for(const std::string& short_name) {
   for (const auto& fi : all_fields())
     if (short_name == fi.grib_short_name) return fi.field;
+  if (short_name == "z") return Field::geopotential_height;
   return std::nullopt;
 }
 
@@ -321,7 +328,7 @@ class GribReader final : public WeatherReader {
       std::string list = fmt::format("{}", fmt::join(held, ", "));
       if (list.size() > 200) list = list.substr(0, 200) + "...";
       throw FormatError(
-          fmt::format("no pressure-level fields (gh, t, r, w, u, v on isobaric levels); it holds only {}", list),
+          fmt::format("no pressure-level fields (gh or z, t, r, w, u, v on isobaric levels); it holds only {}", list),
           {.file = file});
     }
     // Levels: every pressure at which geopotential height is known (the vertical coordinate).
@@ -329,8 +336,9 @@ class GribReader final : public WeatherReader {
     for (const auto& p : pending)
       (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
     if (gh_levels.empty())
-      throw FormatError("no geopotential height (gh) on isobaric levels: cannot place levels in altitude",
-                        {.file = file, .field = "gh"});
+      throw FormatError(
+          "no geopotential height (gh) or geopotential (z) on isobaric levels: cannot place levels in altitude",
+          {.file = file, .field = "gh"});
     for (double p : other_levels)
       if (!gh_levels.count(p)) spdlog::warn("{}: level {:g} hPa has no gh; its fields are ignored", file, p / 100);
 
