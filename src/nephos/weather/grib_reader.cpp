@@ -177,10 +177,20 @@ float scale_for(const std::string& short_name) {
   return 1.0f;
 }
 
+// Cloud condensate is liquid plus ice, as GFS's cloud-fraction diagnostic takes it (Xu &
+// Randall 1996 in GFS's radiation). Its parts: NCEP's cloud (clwmr) and ice (icmr) water mixing
+// ratios (GFS since FV3, 2019, writes them apart; GFS 2011's clwmr already held both) and
+// ECMWF's specific cloud liquid (clwc) and ice (ciwc) water contents (per kg of moist rather
+// than dry air: a difference under 2 %). The parts present at a level are summed.
+bool condensate_part(const std::string& short_name) {
+  return short_name == "clwmr" || short_name == "icmr" || short_name == "clwc" || short_name == "ciwc";
+}
+
 std::optional<Field> field_for(const std::string& short_name) {
   for (const auto& fi : all_fields())
     if (short_name == fi.grib_short_name) return fi.field;
   if (short_name == "z") return Field::geopotential_height;
+  if (condensate_part(short_name)) return Field::cloud_water;
   return std::nullopt;
 }
 
@@ -265,7 +275,8 @@ class GribReader final : public WeatherReader {
     WeatherMetadata meta;
     meta.source = file;
     bool have_time = false;
-    std::set<std::pair<int, long long>> seen;  // (field, pressure in mPa) duplicates
+    // Duplicates: (field, or a condensate part's own name; pressure in mPa).
+    std::set<std::pair<std::string, long long>> seen;
     std::map<std::string, Geometry> geometry_cache;
     std::set<std::string> held;  // what the file has besides pressure-level fields
 
@@ -296,7 +307,8 @@ class GribReader final : public WeatherReader {
       if (on_pressure_level) {
         const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
         const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
-        if (!seen.insert({static_cast<int>(*field), std::llround(p * 1000)}).second) {
+        const std::string key = condensate_part(sn) ? sn : info(*field).grib_short_name;
+        if (!seen.insert({key, std::llround(p * 1000)}).second) {
           spdlog::warn("{}: duplicate message for {}; keeping the first", file, name);
           return;
         }
@@ -347,7 +359,13 @@ class GribReader final : public WeatherReader {
     for (auto& p : pending) {
       const auto it = std::find(levels.begin(), levels.end(), p.pressure_pa);
       if (it == levels.end()) continue;
-      std::copy(p.values.begin(), p.values.end(), w.level_data(p.field, static_cast<int>(it - levels.begin())));
+      const int k = static_cast<int>(it - levels.begin());
+      const bool add = p.field == Field::cloud_water && w.has(p.field, k);  // a second condensate part
+      float* dst = w.level_data(p.field, k);
+      if (add)
+        for (std::size_t i = 0; i < p.values.size(); ++i) dst[i] += p.values[i];
+      else
+        std::copy(p.values.begin(), p.values.end(), dst);
     }
     for (auto& [layer, v] : cloud) w.cloud_cover_mut(layer) = std::move(v);
     w.orography_m_mut() = std::move(orography);

@@ -192,6 +192,37 @@ TEST_F(GribReaderTest, EcmwfGeopotentialGivesTheHeights) {
   EXPECT_EQ(inventory_grib(p).unused_fields, 0);
 }
 
+TEST_F(GribReaderTest, CloudCondensateIsLiquidPlusIce) {
+  // GFS's cloud-fraction diagnostic takes total condensate. GFS since 2019 writes liquid (clwmr)
+  // and ice (icmr) mixing ratios apart, ECMWF liquid (clwc) and ice (ciwc) contents: the parts
+  // at a level are summed; a level with one part takes that part.
+  GribGridSpec s;
+  auto liquid = [](double la, double) { return 1e-4 * (1 + la / 90); };
+  auto ice = [](double, double lo) { return 5e-5 * (1 + std::cos(lo * M_PI / 180)); };
+  for (const auto& [l, i] : {std::pair{"clwmr", "icmr"}, std::pair{"clwc", "ciwc"}}) {
+    const auto p = file(std::string(l) + ".grib2");
+    for (long lev : {850L, 500L}) {
+      append_grib(p, s, "gh", "isobaricInhPa", lev, [lev](double, double) { return lev == 850 ? 1500.0 : 5500.0; });
+      append_grib(p, s, "t", "isobaricInhPa", lev, [](double, double) { return 250.0; });
+      append_grib(p, s, i, "isobaricInhPa", lev, ice);
+    }
+    append_grib(p, s, l, "isobaricInhPa", 500, liquid);  // liquid at 500 hPa only, after the ice
+    const WeatherGrid w = open_weather(p);
+    ASSERT_EQ(w.level_count(), 2);
+    ASSERT_EQ(w.pressure_levels_pa()[1], 50000.0);
+    ASSERT_TRUE(w.has(Field::cloud_water, 0) && w.has(Field::cloud_water, 1)) << l;
+    const auto& g = w.grid();
+    // 24-bit packing of fields spanning ~2e-4 kg/kg: steps of ~1e-11; 1e-9 is ample.
+    for (int j = 0; j < g.nlat; ++j)
+      for (int k = 0; k < g.nlon; ++k) {
+        const double la = g.lat(j), lo = g.lon(k);
+        EXPECT_NEAR(w.value(Field::cloud_water, 0, j, k), ice(la, lo), 1e-9) << l << " 850 hPa";
+        EXPECT_NEAR(w.value(Field::cloud_water, 1, j, k), ice(la, lo) + liquid(la, lo), 1e-9) << l << " 500 hPa";
+      }
+    EXPECT_EQ(inventory_grib(p).unused_fields, 0);
+  }
+}
+
 TEST_F(GribReaderTest, MissingFile) { EXPECT_THROW(open_weather(file("absent.grib2")), IoError); }
 
 TEST(RealGfsSample, HoldsWhatTheMasksNeed) {

@@ -21,7 +21,7 @@ const std::array<FieldInfo, field_count>& all_fields() {
       {Field::omega, "w", "Pa s-1", "vertical velocity (omega, positive = sinking)", true},
       {Field::u_wind, "u", "m s-1", "eastward wind", true},
       {Field::v_wind, "v", "m s-1", "northward wind", true},
-      {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate mixing ratio", false},
+      {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate (liquid + ice) mixing ratio", false},
   }};
   return table;
 }
