@@ -176,20 +176,24 @@ TEST_F(GribReaderTest, EcmwfGeopotentialGivesTheHeights) {
   // ECMWF's IFS and ERA5 store geopotential z [m2 s-2], not geopotential height gh [gpm]:
   // gh = z / 9.80665 (WMO's standard gravity defines the geopotential metre). The same levels
   // written as z must read as the gh file does.
-  GribGridSpec s;
-  const auto p = file("era5_like.grib2");
-  for (long lev : {1000L, 850L, 500L}) {
-    append_grib(p, s, "z", "isobaricInhPa", lev, [lev](double la, double lo) {
-      return 9.80665 * (analytic(la, lo) + static_cast<double>(1000 - lev) * 10);
-    });
-    append_grib(p, s, "t", "isobaricInhPa", lev, [](double, double) { return 250.0; });
+  // ERA5 comes from ECMWF's archive as GRIB1 or GRIB2: both editions.
+  for (int edition : {1, 2}) {
+    GribGridSpec s;
+    s.edition = edition;
+    const auto p = file("era5_like.grib" + std::to_string(edition));
+    for (long lev : {1000L, 850L, 500L}) {
+      append_grib(p, s, "z", "isobaricInhPa", lev, [lev](double la, double lo) {
+        return 9.80665 * (analytic(la, lo) + static_cast<double>(1000 - lev) * 10);
+      });
+      append_grib(p, s, "t", "isobaricInhPa", lev, [](double, double) { return 250.0; });
+    }
+    const WeatherGrid w = open_weather(p);
+    ASSERT_EQ(w.level_count(), 3) << "GRIB" << edition;
+    // z spans ~10x the gh field's range, so its packing step is ~10x larger: ~2.4e-4 m2 s-2 at
+    // 24 bits, ~2.5e-5 gpm after the division; the gh tolerance (1e-3 gpm) holds.
+    expect_grid_matches_analytic(w);
+    EXPECT_EQ(inventory_grib(p).unused_fields, 0) << "GRIB" << edition;
   }
-  const WeatherGrid w = open_weather(p);
-  ASSERT_EQ(w.level_count(), 3);
-  // z spans ~10x the gh field's range, so its packing step is ~10x larger: ~2.4e-4 m2 s-2 at
-  // 24 bits, ~2.5e-5 gpm after the division; the gh tolerance (1e-3 gpm) holds.
-  expect_grid_matches_analytic(w);
-  EXPECT_EQ(inventory_grib(p).unused_fields, 0);
 }
 
 TEST_F(GribReaderTest, CloudCondensateIsLiquidPlusIce) {
