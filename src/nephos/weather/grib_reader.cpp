@@ -270,8 +270,11 @@ class GribReader final : public WeatherReader {
     const std::string file = path.string();
     std::optional<LatLonGrid> grid;
     std::vector<PendingLevel> pending;
-    std::map<CloudLayer, std::vector<float>> cloud;
-    std::vector<float> orography;
+    // A file may hold several valid times (forecast steps concatenated): the fields of one are
+    // read, those of the first pressure-level field; the others are counted and named once.
+    std::map<UtcTime, std::map<CloudLayer, std::vector<float>>> cloud_at;  // tcc per valid time
+    std::map<UtcTime, int> skipped;                                        // fields at other valid times
+    std::vector<float> orography;                                          // time-invariant: the first
     WeatherMetadata meta;
     meta.source = file;
     bool have_time = false;
@@ -304,7 +307,16 @@ class GribReader final : public WeatherReader {
       const auto field = field_for(sn);
       const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
       if (!on_pressure_level) held.insert(sn + "/" + lt);
+      auto valid_time = [h] { return time_from(get_long(h, "validityDate"), get_long(h, "validityTime")); };
       if (on_pressure_level) {
+        const UtcTime vt = valid_time();
+        if (!have_time) {
+          meta.valid_time = vt;
+          have_time = true;
+        } else if (vt != meta.valid_time) {
+          ++skipped[vt];
+          return;
+        }
         const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
         const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
         const std::string key = condensate_part(sn) ? sn : info(*field).grib_short_name;
@@ -318,23 +330,36 @@ class GribReader final : public WeatherReader {
         if (s != 1.0f)
           for (float& v : d.values) v *= s;
         pending.push_back({*field, p, std::move(d.values)});
-        if (!have_time) {
-          meta.valid_time = time_from(get_long(h, "validityDate"), get_long(h, "validityTime"));
-          have_time = true;
-        }
       } else if (sn == "tcc") {
         if (auto layer = cloud_layer_for(lt)) {
           Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt), geometry_cache);
           check_grid(d.grid, "tcc");
           for (float& v : d.values) v *= 0.01f;
-          cloud[*layer] = std::move(d.values);
+          cloud_at[valid_time()][*layer] = std::move(d.values);
         }
-      } else if (sn == "orog" && lt == "surface") {
+      } else if (sn == "orog" && lt == "surface" && orography.empty()) {
         Decoded d = decode_regular_ll(h, file, "orog", geometry_cache);
         check_grid(d.grid, "orog");
         orography = std::move(d.values);
       }
     });
+    std::map<CloudLayer, std::vector<float>> cloud;
+    if (have_time) {
+      for (auto& [t, layers] : cloud_at)
+        if (t == meta.valid_time)
+          cloud = std::move(layers);
+        else
+          skipped[t] += static_cast<int>(layers.size());
+    }
+    if (!skipped.empty()) {
+      int n = 0;
+      std::vector<std::string> times;
+      for (const auto& [t, count] : skipped) n += count, times.push_back(t.iso());
+      spdlog::warn(
+          "{}: fields for {} valid times; reading those of {} (the first pressure-level field's) and skipping {} "
+          "at {} (to read another, split the file, e.g. grib_copy -w validityDate=YYYYMMDD,validityTime=HHMM)",
+          file, skipped.size() + 1, meta.valid_time.iso(), n, fmt::join(times, ", "));
+    }
 
     if (pending.empty()) {
       std::string list = fmt::format("{}", fmt::join(held, ", "));
