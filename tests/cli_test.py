@@ -598,6 +598,24 @@ class Particles(unittest.TestCase):
         self.assertEqual(rows[2].split(",")[1:4], ["2011-01-15T12:30:00Z", "1800", "20000"])
         self.assertGreater(Fly.non_sky_fraction(None, self.out / "frame_0000.png"), 0.02)
 
+    def test_one_file_with_two_forecast_steps(self):
+        # Forecast steps concatenated into one file are read as one weather time each: the
+        # sample, and a copy of its fields re-stamped 6 h later (ecCodes' grib_set).
+        with tempfile.TemporaryDirectory() as d:
+            d = Path(d)
+            subprocess.run(["grib_copy", "-w", "shortName!=tcc", SAMPLE, d / "f120.grib2"], check=True)
+            subprocess.run(["grib_set", "-s", "forecastTime=126", d / "f120.grib2", d / "f126.grib2"], check=True)
+            both = d / "f120_f126.grib2"
+            both.write_bytes(SAMPLE.read_bytes() + (d / "f126.grib2").read_bytes())
+            r = run("particles", "--weather", both, "--count", "2000", "--frames", "2", "--size", "64x36",
+                    "--no-ply", "--out", d / "out")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            rows = (d / "out" / "frames.csv").read_text().splitlines()
+            self.assertEqual([row.split(",")[1] for row in rows[1:]], ["2011-01-15T12:00:00Z", "2011-01-15T18:00:00Z"])
+            # The same time twice is refused with both sources named.
+            r = run("particles", "--weather", SAMPLE, "--weather", SAMPLE, "--frames", "1", "--out", d / "dup")
+            Info.assert_input_error(self, r, "same valid time 2011-01-15T12:00:00Z")
+
     def test_transparent_background(self):
         # The same frame without the sky: RGBA, alpha the particles' coverage.
         with tempfile.TemporaryDirectory() as d:

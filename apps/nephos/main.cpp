@@ -656,7 +656,8 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   } else {
     std::vector<weather::WeatherGrid> grids;
     if (o.weather.empty()) grids.push_back(weather::open_weather(default_weather()));
-    for (const auto& f : o.weather) grids.push_back(weather::open_weather(f));
+    for (const auto& f : o.weather)  // every valid time of every file
+      for (auto& w : weather::open_weather_times(f)) grids.push_back(std::move(w));
     pw = particles::from_weather_grids(
         grids, o.region.empty() ? particles::default_gfs_region : particles::LatLonRegion::parse(o.region, "--region"));
   }

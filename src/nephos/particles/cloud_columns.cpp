@@ -252,6 +252,11 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
   std::vector<weather::WeatherGrid> sorted = grids;
   std::sort(sorted.begin(), sorted.end(),
             [](const auto& a, const auto& b) { return a.metadata().valid_time < b.metadata().valid_time; });
+  for (std::size_t f = 1; f < sorted.size(); ++f)
+    if (sorted[f].metadata().valid_time == sorted[f - 1].metadata().valid_time)
+      throw FormatError(fmt::format("two weather grids at the same valid time {}; give each time once",
+                                    sorted[f].metadata().valid_time.iso()),
+                        {.file = sorted[f - 1].metadata().source + ", " + sorted[f].metadata().source});
   const UtcTime t0 = sorted.front().metadata().valid_time;
   pw.source = sorted.front().metadata().source;
   for (std::size_t f = 1; f < sorted.size(); ++f) pw.source += ", " + sorted[f].metadata().source;

@@ -266,20 +266,32 @@ class GribReader final : public WeatherReader {
     return false;
   }
 
-  WeatherGrid read(const std::filesystem::path& path) const override {
-    const std::string file = path.string();
-    std::optional<LatLonGrid> grid;
+  WeatherGrid read(const std::filesystem::path& path) const override { return read_times(path, false).front(); }
+
+  std::vector<WeatherGrid> read_all_times(const std::filesystem::path& path) const override {
+    return read_times(path, true);
+  }
+
+ private:
+  // The fields of one valid time.
+  struct TimeSlice {
     std::vector<PendingLevel> pending;
-    // A file may hold several valid times (forecast steps concatenated): the fields of one are
-    // read, those of the first pressure-level field; the others are counted and named once.
-    std::map<UtcTime, std::map<CloudLayer, std::vector<float>>> cloud_at;  // tcc per valid time
-    std::map<UtcTime, int> skipped;                                        // fields at other valid times
-    std::vector<float> orography;                                          // time-invariant: the first
-    WeatherMetadata meta;
-    meta.source = file;
-    bool have_time = false;
     // Duplicates: (field, or a condensate part's own name; pressure in mPa).
     std::set<std::pair<std::string, long long>> seen;
+    std::map<CloudLayer, std::vector<float>> cloud;
+    WeatherMetadata meta;  // from its first pressure-level field
+  };
+
+  // One pass over the file. A file may hold several valid times (forecast steps or analysis
+  // hours concatenated): with `all`, one grid per time that has pressure-level fields, in time
+  // order; else the first pressure-level field's time alone, the others counted and named once.
+  std::vector<WeatherGrid> read_times(const std::filesystem::path& path, bool all) const {
+    const std::string file = path.string();
+    std::optional<LatLonGrid> grid;
+    std::map<UtcTime, TimeSlice> slices;
+    std::optional<UtcTime> first;    // the first pressure-level field's valid time
+    std::map<UtcTime, int> skipped;  // without `all`: fields at other valid times
+    std::vector<float> orography;    // time-invariant: the first
     std::map<std::string, Geometry> geometry_cache;
     std::set<std::string> held;  // what the file has besides pressure-level fields
 
@@ -299,29 +311,29 @@ class GribReader final : public WeatherReader {
       const std::string sn = get_string(h, "shortName");
       const std::string lt = get_string(h, "typeOfLevel");
       const long level = get_long(h, "level");
-      if (!have_time) {
-        meta.reference_time = time_from(get_long(h, "dataDate"), get_long(h, "dataTime"));
-        meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
-        meta.producer = get_string(h, "centre");
-      }
       const auto field = field_for(sn);
       const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
       if (!on_pressure_level) held.insert(sn + "/" + lt);
       auto valid_time = [h] { return time_from(get_long(h, "validityDate"), get_long(h, "validityTime")); };
       if (on_pressure_level) {
         const UtcTime vt = valid_time();
-        if (!have_time) {
-          meta.valid_time = vt;
-          have_time = true;
-        } else if (vt != meta.valid_time) {
+        if (!first) first = vt;
+        if (!all && vt != *first) {
           ++skipped[vt];
           return;
+        }
+        TimeSlice& slice = slices[vt];
+        if (slice.pending.empty()) {
+          slice.meta.reference_time = time_from(get_long(h, "dataDate"), get_long(h, "dataTime"));
+          slice.meta.valid_time = vt;
+          slice.meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
+          slice.meta.producer = get_string(h, "centre");
         }
         const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
         const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
         const std::string key = condensate_part(sn) ? sn : info(*field).grib_short_name;
-        if (!seen.insert({key, std::llround(p * 1000)}).second) {
-          spdlog::warn("{}: duplicate message for {}; keeping the first", file, name);
+        if (!slice.seen.insert({key, std::llround(p * 1000)}).second) {
+          spdlog::warn("{}: duplicate message for {} at {}; keeping the first", file, name, vt.iso());
           return;
         }
         Decoded d = decode_regular_ll(h, file, name, geometry_cache);
@@ -329,13 +341,13 @@ class GribReader final : public WeatherReader {
         const float s = scale_for(sn);
         if (s != 1.0f)
           for (float& v : d.values) v *= s;
-        pending.push_back({*field, p, std::move(d.values)});
+        slice.pending.push_back({*field, p, std::move(d.values)});
       } else if (sn == "tcc") {
         if (auto layer = cloud_layer_for(lt)) {
           Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt), geometry_cache);
           check_grid(d.grid, "tcc");
           for (float& v : d.values) v *= 0.01f;
-          cloud_at[valid_time()][*layer] = std::move(d.values);
+          slices[valid_time()].cloud[*layer] = std::move(d.values);
         }
       } else if (sn == "orog" && lt == "surface" && orography.empty()) {
         Decoded d = decode_regular_ll(h, file, "orog", geometry_cache);
@@ -343,45 +355,56 @@ class GribReader final : public WeatherReader {
         orography = std::move(d.values);
       }
     });
-    std::map<CloudLayer, std::vector<float>> cloud;
-    if (have_time) {
-      for (auto& [t, layers] : cloud_at)
-        if (t == meta.valid_time)
-          cloud = std::move(layers);
-        else
-          skipped[t] += static_cast<int>(layers.size());
-    }
-    if (!skipped.empty()) {
-      int n = 0;
-      std::vector<std::string> times;
-      for (const auto& [t, count] : skipped) n += count, times.push_back(t.iso());
-      spdlog::warn(
-          "{}: fields for {} valid times; reading those of {} (the first pressure-level field's) and skipping {} "
-          "at {} (to read another, split the file, e.g. grib_copy -w validityDate=YYYYMMDD,validityTime=HHMM)",
-          file, skipped.size() + 1, meta.valid_time.iso(), n, fmt::join(times, ", "));
-    }
 
-    if (pending.empty()) {
+    if (!first) {
       std::string list = fmt::format("{}", fmt::join(held, ", "));
       if (list.size() > 200) list = list.substr(0, 200) + "...";
       throw FormatError(
           fmt::format("no pressure-level fields (gh or z, t, r, w, u, v on isobaric levels); it holds only {}", list),
           {.file = file});
     }
-    // Levels: every pressure at which geopotential height is known (the vertical coordinate).
+    // Cloud cover at a time without pressure-level fields (or, without `all`, at another time)
+    // has nothing to go with.
+    for (auto& [t, slice] : slices)
+      if (slice.pending.empty() && t != *first) skipped[t] += static_cast<int>(slice.cloud.size());
+    if (!skipped.empty()) {
+      int n = 0;
+      std::vector<std::string> times;
+      for (const auto& [t, count] : skipped) n += count, times.push_back(t.iso());
+      if (all)
+        spdlog::warn("{}: {} cloud-cover fields at {}, where the file has no pressure-level fields, are not read", file,
+                     n, fmt::join(times, ", "));
+      else
+        spdlog::warn(
+            "{}: fields for {} valid times; reading those of {} (the first pressure-level field's) and skipping {} "
+            "at {} (to read another, split the file, e.g. grib_copy -w validityDate=YYYYMMDD,validityTime=HHMM)",
+            file, skipped.size() + 1, first->iso(), n, fmt::join(times, ", "));
+    }
+    std::vector<WeatherGrid> out;
+    for (auto& [t, slice] : slices)
+      if (!slice.pending.empty()) out.push_back(build(file, *grid, slice, orography));
+    return out;
+  }
+
+  // The grid of one time: its levels are those with geopotential height.
+  static WeatherGrid build(const std::string& file, const LatLonGrid& grid, TimeSlice& slice,
+                           const std::vector<float>& orography) {
     std::set<double, std::greater<>> gh_levels, other_levels;
-    for (const auto& p : pending)
+    for (const auto& p : slice.pending)
       (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
     if (gh_levels.empty())
-      throw FormatError(
-          "no geopotential height (gh) or geopotential (z) on isobaric levels: cannot place levels in altitude",
-          {.file = file, .field = "gh"});
+      throw FormatError(fmt::format("no geopotential height (gh) or geopotential (z) on isobaric levels at {}: "
+                                    "cannot place levels in altitude",
+                                    slice.meta.valid_time.iso()),
+                        {.file = file, .field = "gh"});
     for (double p : other_levels)
-      if (!gh_levels.count(p)) spdlog::warn("{}: level {:g} hPa has no gh; its fields are ignored", file, p / 100);
+      if (!gh_levels.count(p))
+        spdlog::warn("{}: level {:g} hPa has no gh at {}; its fields are ignored", file, p / 100,
+                     slice.meta.valid_time.iso());
 
-    WeatherGrid w(*grid, std::vector<double>(gh_levels.begin(), gh_levels.end()));
+    WeatherGrid w(grid, std::vector<double>(gh_levels.begin(), gh_levels.end()));
     const auto& levels = w.pressure_levels_pa();
-    for (auto& p : pending) {
+    for (auto& p : slice.pending) {
       const auto it = std::find(levels.begin(), levels.end(), p.pressure_pa);
       if (it == levels.end()) continue;
       const int k = static_cast<int>(it - levels.begin());
@@ -392,11 +415,14 @@ class GribReader final : public WeatherReader {
       else
         std::copy(p.values.begin(), p.values.end(), dst);
     }
-    for (auto& [layer, v] : cloud) w.cloud_cover_mut(layer) = std::move(v);
-    w.orography_m_mut() = std::move(orography);
+    for (auto& [layer, v] : slice.cloud) w.cloud_cover_mut(layer) = std::move(v);
+    w.orography_m_mut() = orography;
+    WeatherMetadata meta = slice.meta;
+    meta.source = file;
     meta.forecast_step_h = static_cast<double>(meta.valid_time.unix_s - meta.reference_time.unix_s) / 3600.0;
     w.metadata() = meta;
-    spdlog::debug("{}: read {} level fields on {}", file, pending.size(), grid->describe());
+    spdlog::debug("{}: read {} level fields on {} at {}", file, slice.pending.size(), grid.describe(),
+                  meta.valid_time.iso());
     return w;
   }
 };

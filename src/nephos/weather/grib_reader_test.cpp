@@ -251,15 +251,31 @@ TEST(RealGfsSample, HoldsWhatTheMasksNeed) {
   EXPECT_NEAR(w.value(Field::temperature, k850, 52, 102), 273.9, 0.05);          // print rounding
 }
 
-// Forecast steps are often concatenated into one file. The fields of one valid time are read,
-// the first pressure-level field's; those of the others (cloud cover included) are skipped,
-// not mixed in. Two real files, the embedded sample and the validation date, in both orders.
-TEST(MultiTimeGrib, ReadsTheFirstValidTimeAlone) {
+// Forecast steps are often concatenated into one file. open_weather() reads the fields of one
+// valid time, the first pressure-level field's, and skips the others (cloud cover included)
+// instead of mixing them in; open_weather_times() reads every time, one grid each, in time
+// order. Two real files, the embedded sample and the validation date, in both orders.
+TEST(MultiTimeGrib, ReadsTheFirstValidTimeAloneOrEveryTime) {
   const auto dir = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data";
   const auto a_path = dir / "gfs_20110110_12z_f120_2p5deg.grib2";
   const auto b_path = dir / "validation/gfs_20111008_00z_f072_2p5deg.grib2";
   const WeatherGrid a = open_weather(a_path), b = open_weather(b_path);
-  ASSERT_NE(a.metadata().valid_time, b.metadata().valid_time);
+  ASSERT_LT(a.metadata().valid_time, b.metadata().valid_time);
+  auto expect_same = [](const WeatherGrid& w, const WeatherGrid& want, const std::string& what) {
+    EXPECT_EQ(w.metadata().valid_time, want.metadata().valid_time) << what;
+    EXPECT_EQ(w.metadata().reference_time, want.metadata().reference_time) << what;
+    ASSERT_EQ(w.level_count(), want.level_count()) << what;
+    for (int f = 0; f < field_count; ++f)
+      for (int k = 0; k < w.level_count(); ++k) {
+        ASSERT_EQ(w.has(static_cast<Field>(f), k), want.has(static_cast<Field>(f), k)) << what;
+        if (!w.has(static_cast<Field>(f), k)) continue;
+        const float *x = w.level_data(static_cast<Field>(f), k), *y = want.level_data(static_cast<Field>(f), k);
+        ASSERT_TRUE(std::equal(x, x + w.grid().size(), y))
+            << what << ": " << info(static_cast<Field>(f)).grib_short_name << " level " << k;
+      }
+    for (CloudLayer l : {CloudLayer::low, CloudLayer::middle, CloudLayer::high})
+      EXPECT_EQ(w.cloud_cover(l), want.cloud_cover(l)) << what << ": tcc " << name(l);
+  };
   const auto tmp = std::filesystem::temp_directory_path() / "nephos_multi_time";
   std::filesystem::create_directories(tmp);
   auto bytes = [](const std::filesystem::path& p) {
@@ -269,19 +285,12 @@ TEST(MultiTimeGrib, ReadsTheFirstValidTimeAlone) {
   for (const bool a_first : {true, false}) {
     const auto both = tmp / (a_first ? "ab.grib2" : "ba.grib2");
     std::ofstream(both, std::ios::binary) << (a_first ? bytes(a_path) + bytes(b_path) : bytes(b_path) + bytes(a_path));
-    const WeatherGrid w = open_weather(both);
-    const WeatherGrid& want = a_first ? a : b;
-    EXPECT_EQ(w.metadata().valid_time, want.metadata().valid_time);
-    ASSERT_EQ(w.level_count(), want.level_count());
-    for (int f = 0; f < field_count; ++f)
-      for (int k = 0; k < w.level_count(); ++k) {
-        ASSERT_EQ(w.has(static_cast<Field>(f), k), want.has(static_cast<Field>(f), k));
-        if (!w.has(static_cast<Field>(f), k)) continue;
-        const float *x = w.level_data(static_cast<Field>(f), k), *y = want.level_data(static_cast<Field>(f), k);
-        ASSERT_TRUE(std::equal(x, x + w.grid().size(), y)) << info(static_cast<Field>(f)).grib_short_name << " " << k;
-      }
-    for (CloudLayer l : {CloudLayer::low, CloudLayer::middle, CloudLayer::high})
-      EXPECT_EQ(w.cloud_cover(l), want.cloud_cover(l)) << "tcc " << name(l) << (a_first ? " (a, b)" : " (b, a)");
+    const std::string order = a_first ? "(a, b)" : "(b, a)";
+    expect_same(open_weather(both), a_first ? a : b, "first time " + order);
+    const std::vector<WeatherGrid> all = open_weather_times(both);
+    ASSERT_EQ(all.size(), 2u);
+    expect_same(all[0], a, "every time, earlier " + order);  // in time order, whatever the file's
+    expect_same(all[1], b, "every time, later " + order);
   }
   std::filesystem::remove_all(tmp);
 }

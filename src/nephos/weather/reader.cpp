@@ -35,15 +35,23 @@ std::unique_ptr<WeatherReader> make_reader(const std::string& name) {
   return it->second();
 }
 
-WeatherGrid open_weather(const std::filesystem::path& path) {
+namespace {
+std::unique_ptr<WeatherReader> reader_for(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
   for (const auto& n : reader_names()) {
     auto reader = make_reader(n);
-    if (reader->can_read(path)) return reader->read(path);
+    if (reader->can_read(path)) return reader;
   }
   throw FormatError("not a GRIB file (no GRIB messages found) and no other reader recognises it",
                     {.file = path.string()});
+}
+}  // namespace
+
+WeatherGrid open_weather(const std::filesystem::path& path) { return reader_for(path)->read(path); }
+
+std::vector<WeatherGrid> open_weather_times(const std::filesystem::path& path) {
+  return reader_for(path)->read_all_times(path);
 }
 
 }  // namespace nephos::weather

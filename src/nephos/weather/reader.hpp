@@ -17,8 +17,11 @@ class WeatherReader {
   virtual std::string name() const = 0;
   /// Cheap content sniffing (magic bytes), never throws.
   virtual bool can_read(const std::filesystem::path& path) const = 0;
-  /// Reads the file. Throws IoError (cannot read) or FormatError (content not usable).
+  /// Reads the file; a file with several valid times at the first (a warning names the
+  /// others). Throws IoError (cannot read) or FormatError (content not usable).
   virtual WeatherGrid read(const std::filesystem::path& path) const = 0;
+  /// Every valid time the file holds, one grid each, in time order (default: read()).
+  virtual std::vector<WeatherGrid> read_all_times(const std::filesystem::path& path) const { return {read(path)}; }
 };
 
 using ReaderFactory = std::function<std::unique_ptr<WeatherReader>()>;
@@ -31,6 +34,9 @@ std::vector<std::string> reader_names();
 /// Reads a weather file with whichever registered reader recognises it.
 /// Throws IoError if the file is missing/unreadable, FormatError if no reader recognises it.
 WeatherGrid open_weather(const std::filesystem::path& path);
+/// The same for every valid time in the file (forecast steps or analysis hours concatenated),
+/// one grid each, in time order.
+std::vector<WeatherGrid> open_weather_times(const std::filesystem::path& path);
 
 /// What a GRIB file holds beyond what WeatherGrid keeps (for `nephos info`).
 struct GribInventory {
