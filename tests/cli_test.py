@@ -612,6 +612,9 @@ class Particles(unittest.TestCase):
             self.assertEqual(r.returncode, 0, r.stderr)
             rows = (d / "out" / "frames.csv").read_text().splitlines()
             self.assertEqual([row.split(",")[1] for row in rows[1:]], ["2011-01-15T12:00:00Z", "2011-01-15T18:00:00Z"])
+            r = run("info", both)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn("valid time     2011-01-15T12:00:00Z\nlater times    2011-01-15T18:00:00Z", r.stdout)
             # The same time twice is refused with both sources named.
             r = run("particles", "--weather", SAMPLE, "--weather", SAMPLE, "--frames", "1", "--out", d / "dup")
             Info.assert_input_error(self, r, "same valid time 2011-01-15T12:00:00Z")

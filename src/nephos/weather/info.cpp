@@ -26,7 +26,8 @@ std::string capability(const std::vector<std::string>& missing) {
 }  // namespace
 
 std::string describe_weather_file(const std::filesystem::path& path) {
-  const WeatherGrid w = open_weather(path);
+  const std::vector<WeatherGrid> times = open_weather_times(path);
+  const WeatherGrid& w = times.front();  // described; a file may hold more valid times
   const auto inv = inventory_grib(path);
   const auto& m = w.metadata();
   std::string out;
@@ -38,6 +39,14 @@ std::string describe_weather_file(const std::filesystem::path& path) {
   out += fmt::format("reference time {}\n", m.reference_time.iso());
   out += fmt::format("forecast step  {:g} h\n", m.forecast_step_h);
   out += fmt::format("valid time     {}\n", m.valid_time.iso());
+  if (times.size() > 1) {
+    std::vector<std::string> later;
+    for (std::size_t t = 1; t < times.size(); ++t) later.push_back(times[t].metadata().valid_time.iso());
+    out += fmt::format(
+        "later times    {} (described: the first; nephos particles reads them all, other commands "
+        "the first)\n",
+        fmt::join(later, ", "));
+  }
   out += fmt::format("grid           {}\n", w.grid().describe());
   out += fmt::format("levels         {} isobaric level{}, {:g}..{:g} hPa\n", w.level_count(),
                      w.level_count() == 1 ? "" : "s", w.pressure_levels_pa().front() / 100.0,
