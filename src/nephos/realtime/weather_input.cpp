@@ -148,6 +148,15 @@ CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weathe
     const float v = weather::sample_bilinear(masks.grid, masks[t], lat_deg, lon_deg);
     return std::isnan(v) ? 0.0 : std::clamp(static_cast<double>(v), 0.0, 1.0);
   };
+  // A position off a regional grid would otherwise give a clear sky without a word.
+  const CloudType all_types[] = {CloudType::low_stratus, CloudType::low_cumulus, CloudType::altostratus,
+                                 CloudType::cirrus};
+  if (std::all_of(std::begin(all_types), std::end(all_types), [&](CloudType t) {
+        return std::isnan(weather::sample_bilinear(masks.grid, masks[t], lat_deg, lon_deg));
+      }))
+    throw ValueError(fmt::format("no weather at {:.2f}, {:.2f}: outside the weather grid ({}) or missing there",
+                                 lat_deg, lon_deg, masks.grid.describe()),
+                     {.file = w.metadata().source, .key = "--position"});
   const double cu = frac(CloudType::low_cumulus), st = frac(CloudType::low_stratus);
   const double as = frac(CloudType::altostratus), ci = frac(CloudType::cirrus);
   const int n_cu = static_cast<int>(std::lround(200 * cu)), n_st = static_cast<int>(std::lround(200 * st));

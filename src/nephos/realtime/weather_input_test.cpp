@@ -102,6 +102,20 @@ TEST(GfsRecipe, HandCheckedCellsOfTheEmbeddedSample) {
   EXPECT_LT(ci.sprite_clouds(), 10);
   // Central Arabia, clear in GFS: nothing.
   EXPECT_TRUE(recipe_from_weather(masks, w, 22.5, 45).layers.empty());
+  // Off a regional grid there is no weather: an error naming --position, not a clear sky.
+  weather::WeatherMasks regional;
+  regional.grid = {11, 21, 30, 1.0, 10, 1.0};  // 30..40 N, 10..30 E
+  for (auto& v : regional.value) v.assign(regional.grid.size(), 0.5f);
+  EXPECT_GT(recipe_from_weather(regional, w, 35, 20).sprite_clouds(), 0);
+  for (const auto& [lat, lon] : {std::pair{45.0, 20.0}, std::pair{35.0, 40.0}}) {
+    try {
+      recipe_from_weather(regional, w, lat, lon);
+      ADD_FAILURE() << "no error at " << lat << ", " << lon;
+    } catch (const ValueError& e) {
+      EXPECT_NE(std::string(e.what()).find("--position"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("outside the weather grid"), std::string::npos) << e.what();
+    }
+  }
   // Drift = the 2000 m wind, the same numbers the weather sampler gives.
   const auto s = weather::WeatherSampler(w).sample(27.5, 222.5, 2000);
   EXPECT_EQ(sc.drift_east_m_s, s.u_m_s);

@@ -275,6 +275,47 @@ TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
   }
 }
 
+TEST(RendererOnGfs, RegionalWeatherMakesCloudsOnlyInItsRegion) {
+  // Users often fetch a region, not the globe. A window of the real sample (30S-30N, 110-40W)
+  // as a regional grid: outside it there is no weather, so no cloud (before 2026-11-27 the
+  // outer rows were repeated to the poles, and clouds filled the grid's longitudes up to 73 N),
+  // and no NaN radiance; inside there are clouds.
+  const auto& r = real();
+  const weather::LatLonGrid& g = r.w.grid();
+  const int j0 = static_cast<int>(std::lround((-30 - g.lat0_deg) / g.dlat_deg)), nj = 25;  // -30 .. 30
+  const int i0 = static_cast<int>(std::lround((250 - g.lon0_deg) / g.dlon_deg)), ni = 29;  // 250 .. 320 E
+  weather::LatLonGrid rg{nj, ni, g.lat(j0), g.dlat_deg, g.lon(i0), g.dlon_deg};
+  ASSERT_FALSE(rg.wraps());
+  weather::WeatherGrid w(rg, r.w.pressure_levels_pa());
+  w.metadata() = r.w.metadata();
+  for (int f = 0; f < weather::field_count; ++f)
+    for (int k = 0; k < w.level_count(); ++k) {
+      const auto field = static_cast<weather::Field>(f);
+      if (!r.w.has(field, k)) continue;
+      float* dst = w.level_data(field, k);
+      for (int j = 0; j < nj; ++j)
+        for (int i = 0; i < ni; ++i) dst[static_cast<std::size_t>(j) * ni + i] = r.w.value(field, k, j0 + j, i0 + i);
+    }
+  const auto masks = weather::compute_masks(w, weather::MaskParams{});
+  const clouds::CloudScene scene =
+      clouds::build_scene(w, masks, r.params, {weather::CloudType::low_cumulus, weather::CloudType::cirrus}, 3);
+  const Sensor s = Sensor::geostationary(-75.2, 96, 96);
+  const RenderImage img =
+      render(scene, s, earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15)), RenderParams{}, &w);
+  int inside = 0, outside = 0;
+  for (std::size_t p = 0; p < img.cloud_type.size(); ++p) {
+    for (const auto& band : img.radiance) ASSERT_TRUE(std::isfinite(band[p])) << "pixel " << p;
+    if (img.cloud_type[p] < 0) continue;
+    // Cloud positions may lie up to a few degrees beyond the grid's last rows (the fractals'
+    // wind displacement, the masks' resampling reach): 5 degrees of margin.
+    const double lat = img.latitude_deg[p], lon = img.longitude_deg[p];
+    const bool in = lat > -35 && lat < 35 && lon > -115 && lon < -35;
+    (in ? inside : outside) += 1;
+  }
+  EXPECT_GT(inside, 100);
+  EXPECT_EQ(outside, 0);
+}
+
 TEST(RendererOnGfs, GeoAndLeoSeeTheSameCloudTops) {
   // Deterministic clouds: a LEO nadir view below the GEO sub-satellite point finds cloud
   // surfaces; the ray from GEO towards the same points must find the same surface within the

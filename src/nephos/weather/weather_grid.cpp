@@ -79,15 +79,22 @@ float* WeatherGrid::level_data(Field f, int k) {
 
 namespace {
 // The grid cell that holds (lat, lon): its south-west node (j0, i0) and the point's position in
-// it (wy, wx in [0, 1]); false outside a regional grid. Latitudes beyond the outer rows are
-// clamped to them; on global grids longitudes wrap (the last cell joins the last column to the
-// first).
+// it (wy, wx in [0, 1]); false outside a regional grid. Beyond an outer row within one spacing
+// of its pole (a global grid whose rows stop short of the poles, e.g. at +-89.5 deg) the row is
+// repeated up to the pole; beyond any other outer row the point is outside, as it is beyond a
+// regional grid's outer columns. On grids all the way round longitudes wrap (the last cell
+// joins the last column to the first).
 struct Cell {
   int j0 = 0, i0 = 0;
   double wy = 0, wx = 0;
 };
 bool locate_cell(const LatLonGrid& g, double lat_deg, double lon_deg, Cell& c) {
-  const double fy = std::clamp((lat_deg - g.lat0_deg) / g.dlat_deg, 0.0, static_cast<double>(g.nlat - 1));
+  const double fy_raw = (lat_deg - g.lat0_deg) / g.dlat_deg;
+  constexpr double eps = 1e-9;  // rows: a point on an outer row stays inside despite rounding
+  const bool reaches_south = g.lat0_deg - g.dlat_deg <= -90 + eps;
+  const bool reaches_north = g.lat(g.nlat - 1) + g.dlat_deg >= 90 - eps;
+  if ((fy_raw < -eps && !reaches_south) || (fy_raw > g.nlat - 1 + eps && !reaches_north)) return false;
+  const double fy = std::clamp(fy_raw, 0.0, static_cast<double>(g.nlat - 1));
   c.j0 = std::min(static_cast<int>(fy), g.nlat - 2);
   c.wy = fy - c.j0;
   const double fx = earth::wrap_lon_360(lon_deg - g.lon0_deg) / g.dlon_deg;

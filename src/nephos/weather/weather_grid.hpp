@@ -117,16 +117,18 @@ class WeatherGrid {
 };
 
 /// Bilinear value of a 2D field (nlat*nlon, grid order) at (lat, lon) [deg]; longitudes wrap on
-/// global grids, latitudes beyond the outer rows use the outer row; NaN outside a regional grid.
+/// grids all the way round; beyond an outer row within one spacing of its pole (a global grid
+/// whose rows stop short of the poles) the outer row holds up to the pole; NaN outside the
+/// grid otherwise (beyond a regional grid's outer rows or columns).
 float sample_bilinear(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg);
 /// Bicubic (Keys 1981 cubic convolution, a = -1/2: Catmull-Rom) value of a 2D field at (lat,
 /// lon) [deg] from the 4 x 4 nodes around it, clamped to the range of the cell's four corners:
 /// it passes through the nodes, reproduces polynomials up to degree two inside the grid (where
 /// they stay within that range, e.g. monotone across the cell), has a continuous gradient
 /// wherever the clamp is not active, and never leaves the cell's range (a cloud fraction stays a
-/// fraction; no ringing next to a sharp edge). Longitudes wrap on global grids; beyond the outer
-/// rows (and, on a regional grid, its outer columns) the outer node is repeated; NaN outside a
-/// regional grid, and where a node it needs is NaN, the bilinear value.
+/// fraction; no ringing next to a sharp edge). Where a point is inside the grid as for
+/// sample_bilinear, nodes beyond the outer rows and columns repeat the outer ones; NaN outside
+/// the grid, and where a node it needs is NaN, the bilinear value.
 /// Why: thresholding a bilinear field draws the grid (its level sets are straight across a cell
 /// where the corners differ along one axis), so clouds from a coarse grid came out as boxes.
 float sample_bicubic(const LatLonGrid& g, const std::vector<float>& field, double lat_deg, double lon_deg);

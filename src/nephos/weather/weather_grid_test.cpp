@@ -86,11 +86,37 @@ TEST(SampleBicubic, WrapsAroundTheDateLineAndRepeatsThePoles) {
   EXPECT_TRUE(std::isfinite(sample_bicubic(global, v, -89.0, 200.0)));
 }
 
+TEST(SampleBilinear, GlobalRowsShortOfThePolesHoldUpToThem) {
+  // A global 1-degree grid with rows at -89.5 .. 89.5 (cell centres): beyond its outer rows,
+  // within one spacing of the poles, the outer row holds; a tropical band all the way round in
+  // longitude (30 S .. 30 N) has nothing beyond its rows.
+  const LatLonGrid centres{180, 360, -89.5, 1.0, 0.5, 1.0};
+  auto f = [](double lat, double lon) { return 0.5 * lat + std::cos(lon * M_PI / 180); };
+  const auto v = field_of(centres, f);
+  EXPECT_FLOAT_EQ(sample_bilinear(centres, v, 90.0, 10.5), static_cast<float>(f(89.5, 10.5)));
+  EXPECT_FLOAT_EQ(sample_bilinear(centres, v, -90.0, 10.5), static_cast<float>(f(-89.5, 10.5)));
+  EXPECT_TRUE(std::isfinite(sample_bicubic(centres, v, 89.9, 200.0)));
+  const LatLonGrid band{61, 360, -30, 1.0, 0, 1.0};
+  ASSERT_TRUE(band.wraps());
+  const auto b = field_of(band, f);
+  EXPECT_TRUE(std::isnan(sample_bilinear(band, b, 31.0, 100.0)));
+  EXPECT_TRUE(std::isnan(sample_bicubic(band, b, -31.0, 100.0)));
+  EXPECT_NEAR(sample_bilinear(band, b, 30.0, 100.0), f(30.0, 100.0), 1e-5);
+}
+
 TEST(SampleBicubic, RegionalGridsAndMissingValues) {
   const LatLonGrid regional{11, 21, 30, 1.0, 10, 1.0};  // 30..40 N, 10..30 E
   auto f = [](double lat, double lon) { return 0.5 * lat + 0.25 * lon; };
   auto v = field_of(regional, f);
   EXPECT_TRUE(std::isnan(sample_bicubic(regional, v, 35, 31)));  // east of the grid
+  // North and south of it too: a regional grid's outer rows are not repeated to the poles
+  // (they were until 2026-11-27, which put a regional file's clouds all the way north).
+  for (const double lat : {40.5, 29.5, 89.0, -10.0}) {
+    EXPECT_TRUE(std::isnan(sample_bicubic(regional, v, lat, 20))) << lat;
+    EXPECT_TRUE(std::isnan(sample_bilinear(regional, v, lat, 20))) << lat;
+  }
+  EXPECT_NEAR(sample_bilinear(regional, v, 40.0, 20), f(40.0, 20), 1e-5);  // on the outer rows
+  EXPECT_NEAR(sample_bilinear(regional, v, 30.0, 20), f(30.0, 20), 1e-5);
   // Linear fields are exact inside (float rounding of values ~ 25: 1e-5).
   EXPECT_NEAR(sample_bicubic(regional, v, 35.5, 15.5), f(35.5, 15.5), 1e-5);
   // In the last cell the outer node stands in for the missing one beyond it, which bends a
