@@ -615,6 +615,20 @@ class Particles(unittest.TestCase):
             r = run("info", both)
             self.assertEqual(r.returncode, 0, r.stderr)
             self.assertIn("valid time     2011-01-15T12:00:00Z\nlater times    2011-01-15T18:00:00Z", r.stdout)
+            # The other commands read one time: the first, or the one --weather-time names.
+            r = run("masks", "--weather", both, "--weather-time", "2011-01-15T18:00:00Z", "--out", d / "m18")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn("reading those of 2011-01-15T18:00:00Z (as asked)", r.stderr)
+            r = run("masks", "--weather", both, "--out", d / "m12")
+            self.assertIn("reading those of 2011-01-15T12:00:00Z (the first", r.stderr)
+            self.assertEqual((d / "m12" / "masks.nc").read_bytes()[:4], b"\x89HDF")
+            Info.assert_input_error(self, run("-q", "masks", "--weather", both, "--weather-time", "2011-01-16T00:00:00Z",
+                                              "--out", d / "m0"), "valid times: 2011-01-15T12:00:00Z, 2011-01-15T18")
+            Info.assert_input_error(self, run("-q", "render", "--weather", both, "--weather-time", "noon", "--out",
+                                              d / "r"), "--weather-time")
+            Info.assert_input_error(self, run("-q", "masks", "--synthetic", "--weather-time", "2011-01-15T18:00:00Z",
+                                              "--out", d / "s"), "--weather-time")
+            self.assertFalse((d / "m0").exists() or (d / "r").exists() or (d / "s").exists())
             # The same time twice is refused with both sources named.
             r = run("particles", "--weather", SAMPLE, "--weather", SAMPLE, "--frames", "1", "--out", d / "dup")
             Info.assert_input_error(self, r, "same valid time 2011-01-15T12:00:00Z")

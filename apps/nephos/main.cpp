@@ -81,6 +81,7 @@ struct GlobalOptions {
 
 struct MasksOptions {
   std::string weather;
+  std::string weather_time;  // a valid time of a file that holds several (ISO 8601)
   std::string out = "out";
   std::string config;
   bool synthetic = false;
@@ -89,6 +90,7 @@ struct MasksOptions {
 
 struct RenderOptions {
   std::string weather;
+  std::string weather_time;  // a valid time of a file that holds several (ISO 8601)
   bool synthetic = false;
   std::string sensor = "geo:-75.2";
   std::string size = "1000x1000";
@@ -134,16 +136,35 @@ std::pair<int, int> parse_size(const std::string& s) {
   return {w, h};
 }
 
-weather::WeatherGrid load_weather(const std::string& path, bool synthetic, std::uint64_t seed) {
+// A UTC time option (ISO 8601); its errors name the option.
+UtcTime parse_time(const std::string& text, const char* key) {
+  try {
+    return UtcTime::parse(text);
+  } catch (const ValueError& e) {
+    throw ValueError(e.message(), {.key = key});
+  }
+}
+
+// The weather file (default: the embedded sample), at `valid_time` (ISO 8601) when the file
+// holds several valid times and one is asked for.
+weather::WeatherGrid open_weather_file(const std::string& path, const std::string& valid_time) {
+  const fs::path file = path.empty() ? default_weather() : fs::path(path);
+  spdlog::info("weather: {}", file.string());
+  if (valid_time.empty()) return weather::open_weather(file);
+  return weather::open_weather(file, parse_time(valid_time, "--weather-time"));
+}
+
+weather::WeatherGrid load_weather(const std::string& path, bool synthetic, std::uint64_t seed,
+                                  const std::string& valid_time) {
   if (synthetic) {
+    if (!valid_time.empty())
+      throw ValueError("synthetic weather has no file to choose a time from", {.key = "--weather-time"});
     weather::SyntheticWeatherParams p;
     p.seed = seed;
     spdlog::info("weather: synthetic atmosphere, seed {}", seed);
     return weather::make_synthetic_weather(p);
   }
-  const fs::path file = path.empty() ? default_weather() : fs::path(path);
-  spdlog::info("weather: {}", file.string());
-  return weather::open_weather(file);
+  return open_weather_file(path, valid_time);
 }
 
 int run_masks(const MasksOptions& o, const GlobalOptions& g) {
@@ -154,7 +175,7 @@ int run_masks(const MasksOptions& o, const GlobalOptions& g) {
     params = weather::MaskParams::from(dict);
     dict.check_unused();
   }
-  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed);
+  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
   const auto& m = w.metadata();
   spdlog::info("valid {} (run {} + {:g} h), {}", m.valid_time.iso(), m.reference_time.iso(), m.forecast_step_h,
                w.grid().describe());
@@ -236,7 +257,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
       for (auto& f : t.fractals) f.displace_hours = *displace_hours;
   const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
 
-  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed);
+  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
   const UtcTime time = o.time.empty() ? w.metadata().valid_time : UtcTime::parse(o.time);
   const earth::SunPosition sun = earth::sun_position(time);
   spdlog::info("sensor: {}", sensor.description);
@@ -471,6 +492,7 @@ struct FlyOptions {
   std::string change;              // CODE@SECONDS: the weather changes to CODE at that time of the flight
   std::string gl = "gles3";        // OpenGL ES 3.0 or desktop OpenGL 3.3 core
   std::string background = "sky";  // or "transparent": RGBA frames to composite over a map
+  std::string weather_time;        // with --weather: a valid time of a file that holds several
   std::string out = "out/fly";
 };
 
@@ -495,6 +517,8 @@ void add_flight_options(CLI::App* c, FlyOptions& o) {
   c->add_option("--metar", o.metar, "METAR report (its cloud groups)");
   c->add_option("--foreca", o.foreca, "Foreca hourly or daily JSON");
   c->add_option("--weather", o.weather, "GRIB weather file (masks and winds at --position)");
+  c->add_option("--weather-time", o.weather_time,
+                "With --weather: which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
   c->add_option("--position", o.position, "LAT,LON of the aircraft [deg]")->capture_default_str();
   c->add_option("--size", o.size, "Frame WIDTHxHEIGHT")->capture_default_str();
   c->add_option("--speed", o.speed_kt, "Ground speed [kt]")->capture_default_str();
@@ -528,7 +552,7 @@ realtime::CloudRecipe flight_recipe(const FlyOptions& o, const UtcTime& time, do
   if (!o.metar.empty()) return realtime::recipe_from_metar(o.metar);
   if (!o.foreca.empty()) return realtime::recipe_from_code(realtime::code_from_foreca_json(o.foreca, time));
   if (!o.weather.empty()) {
-    const weather::WeatherGrid w = weather::open_weather(o.weather);
+    const weather::WeatherGrid w = open_weather_file(o.weather, o.weather_time);
     return realtime::recipe_from_weather(weather::compute_masks(w, weather::MaskParams{}), w, lat, lon);
   }
   return realtime::recipe_from_code(realtime::parse_weather_code(o.code.empty() ? "d300" : o.code));
@@ -765,6 +789,8 @@ int main(int argc, char** argv) {
   MasksOptions mo;
   auto* masks = app.add_subcommand("masks", "Cloud weather masks (Table 1) as PNGs and CF-NetCDF");
   masks->add_option("--weather", mo.weather, "GRIB file (default: the embedded GFS sample)");
+  masks->add_option("--weather-time", mo.weather_time,
+                    "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
   masks->add_flag("--synthetic", mo.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
   masks->add_option("--out", mo.out, "Output directory")->capture_default_str();
   masks->add_option("--config", mo.config, "TOML file with [cloud_fraction] and [masks.*] parameters");
@@ -775,6 +801,8 @@ int main(int argc, char** argv) {
   RenderOptions ro;
   auto* rend = app.add_subcommand("render", "Render 3D fractal clouds from a sensor (GEO, LEO or any camera)");
   rend->add_option("--weather", ro.weather, "GRIB file (default: the embedded GFS sample)");
+  rend->add_option("--weather-time", ro.weather_time,
+                   "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
   rend->add_flag("--synthetic", ro.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
   rend->add_option("--sensor", ro.sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")
       ->capture_default_str();

@@ -268,6 +268,10 @@ class GribReader final : public WeatherReader {
 
   WeatherGrid read(const std::filesystem::path& path) const override { return read_times(path, false).front(); }
 
+  WeatherGrid read_at(const std::filesystem::path& path, const UtcTime& valid_time) const override {
+    return read_times(path, false, valid_time).front();
+  }
+
   std::vector<WeatherGrid> read_all_times(const std::filesystem::path& path) const override {
     return read_times(path, true);
   }
@@ -284,14 +288,17 @@ class GribReader final : public WeatherReader {
 
   // One pass over the file. A file may hold several valid times (forecast steps or analysis
   // hours concatenated): with `all`, one grid per time that has pressure-level fields, in time
-  // order; else the first pressure-level field's time alone, the others counted and named once.
-  std::vector<WeatherGrid> read_times(const std::filesystem::path& path, bool all) const {
+  // order; else the time `at`, or the first pressure-level field's, alone, the others counted
+  // and named once.
+  std::vector<WeatherGrid> read_times(const std::filesystem::path& path, bool all,
+                                      std::optional<UtcTime> at = std::nullopt) const {
     const std::string file = path.string();
     std::optional<LatLonGrid> grid;
     std::map<UtcTime, TimeSlice> slices;
-    std::optional<UtcTime> first;    // the first pressure-level field's valid time
-    std::map<UtcTime, int> skipped;  // without `all`: fields at other valid times
-    std::vector<float> orography;    // time-invariant: the first
+    std::optional<UtcTime> first = at;  // the time read (without `all`): `at` or the first seen
+    bool any_pressure = false;          // any pressure-level field at any time
+    std::map<UtcTime, int> skipped;     // without `all`: fields at other valid times
+    std::vector<float> orography;       // time-invariant: the first
     std::map<std::string, Geometry> geometry_cache;
     std::set<std::string> held;  // what the file has besides pressure-level fields
 
@@ -317,6 +324,7 @@ class GribReader final : public WeatherReader {
       auto valid_time = [h] { return time_from(get_long(h, "validityDate"), get_long(h, "validityTime")); };
       if (on_pressure_level) {
         const UtcTime vt = valid_time();
+        any_pressure = true;
         if (!first) first = vt;
         if (!all && vt != *first) {
           ++skipped[vt];
@@ -356,12 +364,19 @@ class GribReader final : public WeatherReader {
       }
     });
 
-    if (!first) {
+    if (!any_pressure) {
       std::string list = fmt::format("{}", fmt::join(held, ", "));
       if (list.size() > 200) list = list.substr(0, 200) + "...";
       throw FormatError(
           fmt::format("no pressure-level fields (gh or z, t, r, w, u, v on isobaric levels); it holds only {}", list),
           {.file = file});
+    }
+    if (at && (slices.count(*at) == 0 || slices[*at].pending.empty())) {
+      std::vector<std::string> times;  // those with pressure-level fields
+      for (const auto& [t, count] : skipped) times.push_back(t.iso());
+      throw FormatError(fmt::format("no pressure-level fields valid at {}; the file's valid times: {}", at->iso(),
+                                    fmt::join(times, ", ")),
+                        {.file = file});
     }
     // Cloud cover at a time without pressure-level fields (or, without `all`, at another time)
     // has nothing to go with.
@@ -375,10 +390,11 @@ class GribReader final : public WeatherReader {
         spdlog::warn("{}: {} cloud-cover fields at {}, where the file has no pressure-level fields, are not read", file,
                      n, fmt::join(times, ", "));
       else
-        spdlog::warn(
-            "{}: fields for {} valid times; reading those of {} (the first pressure-level field's) and skipping {} "
-            "at {} (to read another, split the file, e.g. grib_copy -w validityDate=YYYYMMDD,validityTime=HHMM)",
-            file, skipped.size() + 1, first->iso(), n, fmt::join(times, ", "));
+        spdlog::log(at ? spdlog::level::info : spdlog::level::warn,
+                    "{}: fields for {} valid times; reading those of {} ({}) and skipping {} at {} (the commands "
+                    "that read weather take --weather-time to choose)",
+                    file, skipped.size() + 1, first->iso(), at ? "as asked" : "the first pressure-level field's", n,
+                    fmt::join(times, ", "));
     }
     std::vector<WeatherGrid> out;
     for (auto& [t, slice] : slices)

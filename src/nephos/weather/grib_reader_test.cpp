@@ -291,6 +291,14 @@ TEST(MultiTimeGrib, ReadsTheFirstValidTimeAloneOrEveryTime) {
     ASSERT_EQ(all.size(), 2u);
     expect_same(all[0], a, "every time, earlier " + order);  // in time order, whatever the file's
     expect_same(all[1], b, "every time, later " + order);
+    expect_same(open_weather(both, b.metadata().valid_time), b, "the later time asked for " + order);
+    try {
+      open_weather(both, UtcTime::from_civil(2011, 1, 15, 18));
+      ADD_FAILURE() << "no error for a time the file lacks";
+    } catch (const FormatError& e) {
+      EXPECT_NE(std::string(e.what()).find("2011-01-15T12:00:00Z, 2011-10-11T00:00:00Z"), std::string::npos)
+          << e.what();
+    }
   }
   std::filesystem::remove_all(tmp);
 }

@@ -1,5 +1,7 @@
 #include "nephos/weather/reader.hpp"
 
+#include <fmt/format.h>
+
 #include <map>
 
 #include "nephos/core/error.hpp"
@@ -49,6 +51,19 @@ std::unique_ptr<WeatherReader> reader_for(const std::filesystem::path& path) {
 }  // namespace
 
 WeatherGrid open_weather(const std::filesystem::path& path) { return reader_for(path)->read(path); }
+
+WeatherGrid open_weather(const std::filesystem::path& path, const UtcTime& valid_time) {
+  return reader_for(path)->read_at(path, valid_time);
+}
+
+WeatherGrid WeatherReader::read_at(const std::filesystem::path& path, const UtcTime& valid_time) const {
+  WeatherGrid w = read(path);
+  if (w.metadata().valid_time != valid_time)
+    throw FormatError(fmt::format("no fields valid at {}; the file's valid time: {}", valid_time.iso(),
+                                  w.metadata().valid_time.iso()),
+                      {.file = path.string()});
+  return w;
+}
 
 std::vector<WeatherGrid> open_weather_times(const std::filesystem::path& path) {
   return reader_for(path)->read_all_times(path);
