@@ -194,6 +194,12 @@ std::optional<Field> field_for(const std::string& short_name) {
   return std::nullopt;
 }
 
+// The ground's height: NCEP's orography (orog, m) or ECMWF's surface geopotential (z at the
+// surface, m2 s-2; its geopotential height is the orography to within 0.1 %).
+bool orography_field(const std::string& short_name, const std::string& level_type) {
+  return level_type == "surface" && (short_name == "orog" || short_name == "z");
+}
+
 std::optional<CloudLayer> cloud_layer_for(const std::string& level_type) {
   for (int l = 0; l < cloud_layer_count; ++l)
     if (level_type == grib_level_type(static_cast<CloudLayer>(l))) return static_cast<CloudLayer>(l);
@@ -357,9 +363,12 @@ class GribReader final : public WeatherReader {
           for (float& v : d.values) v *= 0.01f;
           slices[valid_time()].cloud[*layer] = std::move(d.values);
         }
-      } else if (sn == "orog" && lt == "surface" && orography.empty()) {
-        Decoded d = decode_regular_ll(h, file, "orog", geometry_cache);
-        check_grid(d.grid, "orog");
+      } else if (orography_field(sn, lt) && orography.empty()) {
+        Decoded d = decode_regular_ll(h, file, sn, geometry_cache);
+        check_grid(d.grid, sn);
+        const float s = scale_for(sn);  // ECMWF: the surface's geopotential z [m2 s-2]
+        if (s != 1.0f)
+          for (float& v : d.values) v *= s;
         orography = std::move(d.values);
       }
     });
@@ -457,7 +466,7 @@ GribInventory inventory_grib(const std::filesystem::path& path) {
     grids.insert(get_string(h, "gridType"));
     const std::string sn = get_string(h, "shortName"), lt = get_string(h, "typeOfLevel");
     const bool used = (field_for(sn) && (lt == "isobaricInhPa" || lt == "isobaricInPa")) ||
-                      (sn == "tcc" && cloud_layer_for(lt)) || (sn == "orog" && lt == "surface");
+                      (sn == "tcc" && cloud_layer_for(lt)) || orography_field(sn, lt);
     if (!used) ++skipped[sn + "/" + lt], ++inv.unused_fields;
   });
   inv.messages = static_cast<int>(offsets.size());

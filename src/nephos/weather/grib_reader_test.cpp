@@ -188,8 +188,13 @@ TEST_F(GribReaderTest, EcmwfGeopotentialGivesTheHeights) {
       });
       append_grib(p, s, "t", "isobaricInhPa", lev, [](double, double) { return 250.0; });
     }
+    // And the ground: ECMWF's surface geopotential instead of NCEP's orog.
+    append_grib(p, s, "z", "surface", 0, [](double la, double) { return 9.80665 * (1000 + 10 * la); });
     const WeatherGrid w = open_weather(p);
     ASSERT_EQ(w.level_count(), 3) << "GRIB" << edition;
+    ASSERT_TRUE(w.has_orography()) << "GRIB" << edition;
+    for (int j = 0; j < w.grid().nlat; ++j)  // a 1200 m2 s-2 range at 24 bits: steps of 1e-4 m2 s-2
+      EXPECT_NEAR(w.orography_m()[static_cast<std::size_t>(j) * w.grid().nlon], 1000 + 10 * w.grid().lat(j), 1e-3);
     // z spans ~10x the gh field's range, so its packing step is ~10x larger: ~2.4e-4 m2 s-2 at
     // 24 bits, ~2.5e-5 gpm after the division; the gh tolerance (1e-3 gpm) holds.
     expect_grid_matches_analytic(w);
