@@ -194,6 +194,16 @@ std::optional<Field> field_for(const std::string& short_name) {
   return std::nullopt;
 }
 
+// ECMWF's low, medium and high cloud cover (lcc, mcc, hcc: fractions 0-1, single-level fields)
+// where NCEP gives tcc in % on its cloud layers: both validate the masks (docs/weather.md).
+std::optional<CloudLayer> ecmwf_cloud_layer(const std::string& short_name, const std::string& level_type) {
+  if (level_type != "surface" && level_type != "entireAtmosphere") return std::nullopt;
+  if (short_name == "lcc") return CloudLayer::low;
+  if (short_name == "mcc") return CloudLayer::middle;
+  if (short_name == "hcc") return CloudLayer::high;
+  return std::nullopt;
+}
+
 // The ground's height: NCEP's orography (orog, m) or ECMWF's surface geopotential (z at the
 // surface, m2 s-2; its geopotential height is the orography to within 0.1 %).
 bool orography_field(const std::string& short_name, const std::string& level_type) {
@@ -363,6 +373,10 @@ class GribReader final : public WeatherReader {
           for (float& v : d.values) v *= 0.01f;
           slices[valid_time()].cloud[*layer] = std::move(d.values);
         }
+      } else if (const auto layer = ecmwf_cloud_layer(sn, lt)) {  // already a fraction
+        Decoded d = decode_regular_ll(h, file, sn, geometry_cache);
+        check_grid(d.grid, sn);
+        slices[valid_time()].cloud[*layer] = std::move(d.values);
       } else if (orography_field(sn, lt) && orography.empty()) {
         Decoded d = decode_regular_ll(h, file, sn, geometry_cache);
         check_grid(d.grid, sn);
@@ -466,7 +480,7 @@ GribInventory inventory_grib(const std::filesystem::path& path) {
     grids.insert(get_string(h, "gridType"));
     const std::string sn = get_string(h, "shortName"), lt = get_string(h, "typeOfLevel");
     const bool used = (field_for(sn) && (lt == "isobaricInhPa" || lt == "isobaricInPa")) ||
-                      (sn == "tcc" && cloud_layer_for(lt)) || orography_field(sn, lt);
+                      (sn == "tcc" && cloud_layer_for(lt)) || ecmwf_cloud_layer(sn, lt) || orography_field(sn, lt);
     if (!used) ++skipped[sn + "/" + lt], ++inv.unused_fields;
   });
   inv.messages = static_cast<int>(offsets.size());

@@ -188,13 +188,25 @@ TEST_F(GribReaderTest, EcmwfGeopotentialGivesTheHeights) {
       });
       append_grib(p, s, "t", "isobaricInhPa", lev, [](double, double) { return 250.0; });
     }
-    // And the ground: ECMWF's surface geopotential instead of NCEP's orog.
+    // And the ground: ECMWF's surface geopotential instead of NCEP's orog; and its cloud cover,
+    // fractions of 0-1 where NCEP's tcc is in %.
     append_grib(p, s, "z", "surface", 0, [](double la, double) { return 9.80665 * (1000 + 10 * la); });
+    append_grib(p, s, "lcc", "surface", 0, [](double, double) { return 0.25; });
+    append_grib(p, s, "mcc", "surface", 0, [](double, double) { return 0.5; });
+    append_grib(p, s, "hcc", "surface", 0, [](double la, double) { return la > 0 ? 1.0 : 0.0; });
     const WeatherGrid w = open_weather(p);
     ASSERT_EQ(w.level_count(), 3) << "GRIB" << edition;
     ASSERT_TRUE(w.has_orography()) << "GRIB" << edition;
     for (int j = 0; j < w.grid().nlat; ++j)  // a 1200 m2 s-2 range at 24 bits: steps of 1e-4 m2 s-2
       EXPECT_NEAR(w.orography_m()[static_cast<std::size_t>(j) * w.grid().nlon], 1000 + 10 * w.grid().lat(j), 1e-3);
+    ASSERT_TRUE(w.has_cloud_cover(CloudLayer::low) && w.has_cloud_cover(CloudLayer::middle) &&
+                w.has_cloud_cover(CloudLayer::high));
+    for (int j = 0; j < w.grid().nlat; ++j) {  // constant fields pack exactly
+      const auto p0 = static_cast<std::size_t>(j) * w.grid().nlon;
+      EXPECT_EQ(w.cloud_cover(CloudLayer::low)[p0], 0.25f);
+      EXPECT_EQ(w.cloud_cover(CloudLayer::middle)[p0], 0.5f);
+      EXPECT_NEAR(w.cloud_cover(CloudLayer::high)[p0], w.grid().lat(j) > 0 ? 1.0 : 0.0, 1e-6);  // 24-bit step
+    }
     // z spans ~10x the gh field's range, so its packing step is ~10x larger: ~2.4e-4 m2 s-2 at
     // 24 bits, ~2.5e-5 gpm after the division; the gh tolerance (1e-3 gpm) holds.
     expect_grid_matches_analytic(w);
