@@ -338,6 +338,14 @@ class GribReader final : public WeatherReader {
       const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
       if (!on_pressure_level) held.insert(sn + "/" + lt);
       auto valid_time = [h] { return time_from(get_long(h, "validityDate"), get_long(h, "validityTime")); };
+      // The field's values on the file's one grid, in nephos's unit (scale_for).
+      auto values = [&](const std::string& name, const std::string& grid_field) {
+        Decoded d = decode_regular_ll(h, file, name, geometry_cache);
+        check_grid(d.grid, grid_field);
+        if (const float s = scale_for(sn); s != 1.0f)
+          for (float& v : d.values) v *= s;
+        return std::move(d.values);
+      };
       if (on_pressure_level) {
         const UtcTime vt = valid_time();
         any_pressure = true;
@@ -360,30 +368,13 @@ class GribReader final : public WeatherReader {
           spdlog::warn("{}: duplicate message for {} at {}; keeping the first", file, name, vt.iso());
           return;
         }
-        Decoded d = decode_regular_ll(h, file, name, geometry_cache);
-        check_grid(d.grid, name);
-        const float s = scale_for(sn);
-        if (s != 1.0f)
-          for (float& v : d.values) v *= s;
-        slice.pending.push_back({*field, p, std::move(d.values)});
+        slice.pending.push_back({*field, p, values(name, name)});
       } else if (sn == "tcc") {
-        if (auto layer = cloud_layer_for(lt)) {
-          Decoded d = decode_regular_ll(h, file, fmt::format("tcc@{}", lt), geometry_cache);
-          check_grid(d.grid, "tcc");
-          for (float& v : d.values) v *= 0.01f;
-          slices[valid_time()].cloud[*layer] = std::move(d.values);
-        }
+        if (auto layer = cloud_layer_for(lt)) slices[valid_time()].cloud[*layer] = values("tcc@" + lt, "tcc");
       } else if (const auto layer = ecmwf_cloud_layer(sn, lt)) {  // already a fraction
-        Decoded d = decode_regular_ll(h, file, sn, geometry_cache);
-        check_grid(d.grid, sn);
-        slices[valid_time()].cloud[*layer] = std::move(d.values);
+        slices[valid_time()].cloud[*layer] = values(sn, sn);
       } else if (orography_field(sn, lt) && orography.empty()) {
-        Decoded d = decode_regular_ll(h, file, sn, geometry_cache);
-        check_grid(d.grid, sn);
-        const float s = scale_for(sn);  // ECMWF: the surface's geopotential z [m2 s-2]
-        if (s != 1.0f)
-          for (float& v : d.values) v *= s;
-        orography = std::move(d.values);
+        orography = values(sn, sn);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
       }
     });
 
