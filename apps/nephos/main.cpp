@@ -496,6 +496,13 @@ struct FlyOptions {
   std::string out = "out/fly";
 };
 
+// --background of nephos fly and nephos particles.
+void add_background_option(CLI::App* c, std::string& value) {
+  c->add_option("--background", value,
+                "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
+      ->capture_default_str();
+}
+
 /// --background: false for "sky", true for "transparent".
 bool transparent_background(const std::string& value) {
   if (value != "sky" && value != "transparent")
@@ -849,9 +856,7 @@ int main(int argc, char** argv) {
   fly->add_option("--frames", fo.frames, "Frames (30 per second of flight)")->capture_default_str();
   fly->add_flag("--no-sort-opt", fo.no_sort_opt, "Re-sort every frame instead of only when the view changed");
   fly->add_option("--change", fo.change, "CODE@SECONDS: the weather changes then (clouds form and dissipate)");
-  fly->add_option("--background", fo.background,
-                  "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
-      ->capture_default_str();
+  add_background_option(fly, fo.background);
   fly->add_option("--out", fo.out, "Output directory")->capture_default_str();
 
   FlyOptions vo;
@@ -881,9 +886,7 @@ int main(int argc, char** argv) {
   part->add_option("--refine", po.refine, "Split each weather cell NxN (0: GFS to <= 30 km cells, WRF unchanged)")
       ->capture_default_str();
   part->add_flag("--no-ply", po.no_ply, "Do not write the particle set as PLY");
-  part->add_option("--background", po.background,
-                   "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
-      ->capture_default_str();
+  add_background_option(part, po.background);
   part->add_option("--out", po.out, "Output directory")->capture_default_str();
 
   auto* bench = app.add_subcommand("bench", "Benchmarks that print measured figures beside their anchors");
