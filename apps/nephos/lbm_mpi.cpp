@@ -3,6 +3,7 @@
 #include <mpi.h>
 
 #include <fmt/format.h>
+#include <array>
 #include <chrono>
 #include <cstdlib>
 #include <exception>
@@ -83,12 +84,40 @@ auto on_all_ranks(F&& f) {
 
 }  // namespace
 
+int slab_begin(int ny, int r, int size) { return static_cast<int>(static_cast<long>(ny) * r / size); }
+
+std::vector<float> gather_slabs(const lbm::Grid3& grid, const std::vector<float>& local) {
+  // Gather the owned blocks ([z][y_own][x] per rank) on rank 0 and put them in place.
+  const int rank = mpi_rank(), size = mpi_size();
+  auto begin = [&](int r) { return slab_begin(grid.ny, r, size); };
+  std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
+  for (int r = 0; r < size; ++r) {
+    counts[static_cast<std::size_t>(r)] = (begin(r + 1) - begin(r)) * grid.nx * grid.nz;
+    displs[static_cast<std::size_t>(r)] =
+        r == 0 ? 0 : displs[static_cast<std::size_t>(r - 1)] + counts[static_cast<std::size_t>(r - 1)];
+  }
+  std::vector<float> all(rank == 0 ? grid.cells() : 0);
+  MPI_Gatherv(local.data(), static_cast<int>(local.size()), MPI_FLOAT, all.data(), counts.data(), displs.data(),
+              MPI_FLOAT, 0, MPI_COMM_WORLD);
+  if (rank != 0) return {};
+  std::vector<float> dest(grid.cells());
+  for (int r = 0; r < size; ++r) {
+    const int own = begin(r + 1) - begin(r);
+    const float* block = all.data() + displs[static_cast<std::size_t>(r)];
+    for (int z = 0; z < grid.nz; ++z)
+      for (int y = 0; y < own; ++y)
+        for (int x = 0; x < grid.nx; ++x)
+          dest[grid.index(x, begin(r) + y, z)] = block[(static_cast<std::size_t>(z) * own + y) * grid.nx + x];
+  }
+  return dest;
+}
+
 WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelParams& params, std::uint64_t seed,
                           const WaterMpiOptions& o) {
   const int rank = mpi_rank(), size = mpi_size();
   const lbm::Grid3 grid =
       on_all_ranks([&] { return o.resume.empty() ? fresh_grid : lbm::WaterModel::checkpoint_grid(o.resume); });
-  auto begin = [&](int r) { return static_cast<int>(static_cast<long>(grid.ny) * r / size); };
+  auto begin = [&](int r) { return slab_begin(grid.ny, r, size); };
   const int y0 = begin(rank), y1 = begin(rank + 1);
   if (grid.ny / size < 2)
     throw ValueError(fmt::format("{} ranks need at least {} rows in y", size, 2 * size), {.key = "--grid"});
@@ -160,30 +189,72 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
   result.first_step = first;
   result.steps_done = model.steps_done();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  // Gather the owned blocks ([z][y_own][x] per rank) on rank 0 and put them in place.
-  for (int c = 0; c < 2; ++c) {
-    const auto local = c == 0 ? model.vapour() : model.temperature();
-    std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
-    for (int r = 0; r < size; ++r) {
-      counts[static_cast<std::size_t>(r)] = (begin(r + 1) - begin(r)) * grid.nx * grid.nz;
-      displs[static_cast<std::size_t>(r)] =
-          r == 0 ? 0 : displs[static_cast<std::size_t>(r - 1)] + counts[static_cast<std::size_t>(r - 1)];
-    }
-    std::vector<float> all(rank == 0 ? grid.cells() : 0);
-    MPI_Gatherv(local.data(), static_cast<int>(local.size()), MPI_FLOAT, all.data(), counts.data(), displs.data(),
-                MPI_FLOAT, 0, MPI_COMM_WORLD);
-    if (rank != 0) continue;
-    std::vector<float>& dest = c == 0 ? result.vapour : result.temperature;
-    dest.resize(grid.cells());
-    for (int r = 0; r < size; ++r) {
-      const int own = begin(r + 1) - begin(r);
-      const float* block = all.data() + displs[static_cast<std::size_t>(r)];
-      for (int z = 0; z < grid.nz; ++z)
-        for (int y = 0; y < own; ++y)
-          for (int x = 0; x < grid.nx; ++x)
-            dest[grid.index(x, begin(r) + y, z)] = block[(static_cast<std::size_t>(z) * own + y) * grid.nx + x];
-    }
+  result.local_vapour = model.vapour();
+  result.vapour = gather_slabs(grid, result.local_vapour);
+  result.temperature = gather_slabs(grid, model.temperature());
+  return result;
+}
+
+PercolationMpiResult run_percolation_mpi(const lbm::Grid3& grid, const std::vector<float>& local_vapour,
+                                         const lbm::PercolationParams& params, std::uint64_t seed) {
+  const int rank = mpi_rank(), size = mpi_size();
+  const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
+  lbm::Percolation perc = on_all_ranks([&] { return lbm::Percolation(grid, local_vapour, params, seed, y0, y1); });
+  const int up = (rank + 1) % size, down = (rank + size - 1) % size;  // periodic in y
+  PercolationMpiResult result;
+  result.steps = perc.run(
+      [&](lbm::Percolation& p) {
+        using Side = lbm::Percolation::Side;
+        const auto low = p.edge_rows(Side::below), high = p.edge_rows(Side::above);
+        std::vector<std::uint64_t> from_below(high.size()), from_above(low.size());
+        const int n = static_cast<int>(low.size());
+        MPI_Sendrecv(high.data(), n, MPI_UINT64_T, up, 3, from_below.data(), n, MPI_UINT64_T, down, 3, MPI_COMM_WORLD,
+                     MPI_STATUS_IGNORE);
+        MPI_Sendrecv(low.data(), n, MPI_UINT64_T, down, 4, from_above.data(), n, MPI_UINT64_T, up, 4, MPI_COMM_WORLD,
+                     MPI_STATUS_IGNORE);
+        p.set_halo(Side::below, from_below);
+        p.set_halo(Side::above, from_above);
+      },
+      [](std::size_t n) {
+        unsigned long long mine = n, total = 0;  // an integer sum: exact in any order
+        MPI_Allreduce(&mine, &total, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+        return static_cast<std::size_t>(total);
+      });
+  result.local_density = perc.coarse_density();
+  return result;
+}
+
+LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<float>& local_density,
+                                   const lbm::LightingParams& params) {
+  const int rank = mpi_rank(), size = mpi_size();
+  const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
+  lbm::LightingSolver solver = on_all_ranks([&] { return lbm::LightingSolver(grid, local_density, params, y0, y1); });
+  const int up = (rank + 1) % size, down = (rank + size - 1) % size;
+  // Every rank's row planes, gathered in rank (= y) order for the whole grid's balance.
+  std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
+  for (int r = 0; r < size; ++r) {
+    counts[static_cast<std::size_t>(r)] = 3 * (slab_begin(grid.ny, r + 1, size) - slab_begin(grid.ny, r, size));
+    displs[static_cast<std::size_t>(r)] = 3 * slab_begin(grid.ny, r, size);
   }
+  std::vector<std::array<double, 3>> planes(static_cast<std::size_t>(grid.ny));
+  LightingMpiResult result;
+  result.steps = solver.solve([&](lbm::LightingSolver& s) {
+    using Side = lbm::LightingSolver::Side;
+    const auto down_going = s.leaving(Side::below), up_going = s.leaving(Side::above);
+    std::vector<float> from_below(up_going.size()), from_above(down_going.size());
+    const int n = static_cast<int>(up_going.size());
+    MPI_Sendrecv(up_going.data(), n, MPI_FLOAT, up, 5, from_below.data(), n, MPI_FLOAT, down, 5, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+    MPI_Sendrecv(down_going.data(), n, MPI_FLOAT, down, 6, from_above.data(), n, MPI_FLOAT, up, 6, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+    s.set_arrivals(Side::below, from_below);
+    s.set_arrivals(Side::above, from_above);
+    MPI_Allgatherv(s.plane_balance().data()->data(), 3 * static_cast<int>(s.plane_balance().size()), MPI_DOUBLE,
+                   planes.data()->data(), counts.data(), displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+    s.set_balance(lbm::LightingSolver::balance_of_planes(planes));
+  });
+  result.residual = solver.residual();
+  result.local_light = solver.light();
   return result;
 }
 

@@ -1,11 +1,15 @@
 #pragma once
-// Running the lattice-Boltzmann water model across MPI processes: the lattice is cut into
-// slabs along y, one per rank, which exchange one halo row of populations before streaming and
-// one of densities before the force computation. Results are bit-identical to one process.
+// Running the lattice-Boltzmann pipeline across MPI processes: the lattice is cut into slabs
+// along y, one per rank. The water model's slabs exchange one halo row of populations before
+// streaming and one of densities before the force computation; the percolation's two refined
+// rows of activation before each step; the lighting's the photons that crossed a cut after
+// each step. Results are bit-identical to one process.
 #include <cstdint>
 #include <filesystem>
 #include <vector>
 
+#include "nephos/lbm/lighting.hpp"
+#include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/water_model.hpp"
 
 namespace nephos::app {
@@ -17,9 +21,16 @@ void mpi_finalize();
 int mpi_rank();
 int mpi_size();
 
+/// The first row of rank r's slab of a lattice `ny` rows long cut among `size` ranks (r = size:
+/// ny).
+int slab_begin(int ny, int r, int size);
+/// The whole field on rank 0 (empty on the others) from every rank's slab ([z][y - begin][x]).
+std::vector<float> gather_slabs(const lbm::Grid3& grid, const std::vector<float>& local);
+
 struct WaterResult {
   lbm::Grid3 grid;                         ///< the whole lattice
   std::vector<float> vapour, temperature;  ///< whole lattice, on rank 0 only
+  std::vector<float> local_vapour;         ///< this rank's slab, [z][y - slab_begin][x]
   long first_step = 0, steps_done = 0;     ///< step resumed from (0 for a fresh run), and reached
   double seconds = 0;
 };
@@ -38,5 +49,25 @@ struct WaterMpiOptions {
 /// out_dir/checkpoint_failed.bin.
 WaterResult run_water_mpi(const lbm::Grid3& grid, const lbm::WaterModelParams& params, std::uint64_t seed,
                           const WaterMpiOptions& options);
+
+/// Nagel-Raschke percolation of this rank's slab (refined rows of its lattice rows), two halo
+/// rows of activation exchanged with the neighbouring ranks before every step.
+struct PercolationMpiResult {
+  int steps = 0;
+  std::vector<float> local_density;  ///< cloud fraction of this rank's slab, [z][y - slab_begin][x]
+};
+PercolationMpiResult run_percolation_mpi(const lbm::Grid3& grid, const std::vector<float>& local_vapour,
+                                         const lbm::PercolationParams& params, std::uint64_t seed);
+
+/// Lattice-Boltzmann lighting of this rank's slab to the steady state of the whole grid: the
+/// photons that cross a cut are exchanged after every step, and the photon balance is summed
+/// over the ranks' row planes in y order, so every rank stops at the same step.
+struct LightingMpiResult {
+  int steps = 0;
+  double residual = 0;
+  std::vector<float> local_light;  ///< this rank's slab, [z][y - slab_begin][x]
+};
+LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<float>& local_density,
+                                   const lbm::LightingParams& params);
 
 }  // namespace nephos::app

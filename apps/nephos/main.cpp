@@ -347,16 +347,21 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   {
     // What the stages hold at once, per cell [B] (docs/lbm.md): the water model's populations
     // and fields (one process), the percolation's five bits per refined site, the lighting's
-    // two copies of 19 directions plus coefficients, and the output fields.
+    // two copies of 19 directions plus coefficients, and the output fields. Under MPI the
+    // ranks share the percolation and the lighting (slabs), and rank 0 gathers the fields.
     const lbm::Grid3 lattice =
         o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
-    const double water = app::mpi_launched() ? 0.0 : params.storage == lbm::Storage::fp16 ? 180 : 316;
-    const double percolation = 5.0 * std::pow(o.percolation, 3) / 8 + 8, lighting = 2 * 19 * 4 + 8, fields = 5 * 4;
+    const bool mpi = app::mpi_launched();
+    const double share = mpi ? 1.0 / app::mpi_size() : 1.0;
+    const double water = mpi ? 0.0 : params.storage == lbm::Storage::fp16 ? 180 : 316;
+    const double percolation = (5.0 * std::pow(o.percolation, 3) / 8 + 8) * share, lighting = (2 * 19 * 4 + 8) * share,
+                 fields = 5 * 4;
     require_memory(static_cast<double>(lattice.cells()) * (std::max({water, percolation, lighting}) + fields), "--grid",
                    fmt::format("the {} lattice with percolation K = {}", lattice.describe(), o.percolation));
   }
   const fs::path out(o.out);
   std::vector<float> vapour, temperature;
+  std::vector<float> local_vapour;  // under MPI: this rank's slab of the vapour
   lbm::Grid3 grid;
   long done = 0, steps_total = 0;
   double t_water = 0;
@@ -364,15 +369,16 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     ensure_directory(out);  // on every rank: a failure must stop all of them, not leave them waiting
     auto r = app::run_water_mpi(o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::Grid3{}, params, g.seed,
                                 {o.iterations, o.checkpoint_every, o.resume, out});
-    if (app::mpi_rank() != 0) return 0;  // rank 0 runs the remaining stages and writes the outputs
     grid = r.grid;
-    vapour = std::move(r.vapour);
+    vapour = std::move(r.vapour);  // rank 0 only
     temperature = std::move(r.temperature);
+    local_vapour = std::move(r.local_vapour);
     done = r.steps_done - r.first_step;
     steps_total = r.steps_done;
     t_water = r.seconds;
-    spdlog::info("water model on {} MPI processes{}", app::mpi_size(),
-                 o.resume.empty() ? "" : fmt::format(", resumed at step {} from {}", r.first_step, o.resume));
+    if (app::mpi_rank() == 0)
+      spdlog::info("water model on {} MPI processes{}", app::mpi_size(),
+                   o.resume.empty() ? "" : fmt::format(", resumed at step {} from {}", r.first_step, o.resume));
   } else {
     lbm::WaterModel model =
         o.resume.empty() ? lbm::WaterModel(lbm::Grid3::parse(o.grid), params) : lbm::WaterModel::load(o.resume);
@@ -414,6 +420,9 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     done = model.steps_done() - first;
     steps_total = model.steps_done();
   }
+  // Percolation and lighting: under MPI each rank works on its slab (halo rows exchanged with
+  // its neighbours, docs/lbm.md) and rank 0 gathers the fields; otherwise on the whole lattice.
+  const bool mpi = app::mpi_launched();
   std::vector<float> percolated;
   double t_perc = 0;
   int perc_steps = 0;
@@ -422,22 +431,43 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     lbm::PercolationParams pp;
     pp.refinement = o.percolation;
     pp.rho10 = params.rho10;
-    lbm::Percolation perc(grid, vapour, pp, g.seed);
-    perc_steps = perc.run();
-    percolated = perc.coarse_density();
+    if (mpi) {
+      auto r = app::run_percolation_mpi(grid, local_vapour, pp, g.seed);
+      perc_steps = r.steps;
+      percolated = std::move(r.local_density);  // this rank's slab until gathered
+    } else {
+      lbm::Percolation perc(grid, vapour, pp, g.seed);
+      perc_steps = perc.run();
+      percolated = perc.coarse_density();
+    }
     t_perc = std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
   }
   // Lighting (lattice-Boltzmann photon transport) of the cloud density, then ray casting.
   std::vector<float> cloud = percolated;
   if (cloud.empty()) {  // without percolation: condensate where the vapour exceeds rho10
-    cloud.resize(vapour.size());
-    for (std::size_t c = 0; c < vapour.size(); ++c)
-      cloud[c] = static_cast<float>(std::clamp((vapour[c] - params.rho10) / (0.1 * params.rho10), 0.0, 1.0));
+    const std::vector<float>& v = mpi ? local_vapour : vapour;
+    cloud.resize(v.size());
+    for (std::size_t c = 0; c < v.size(); ++c)
+      cloud[c] = static_cast<float>(std::clamp((v[c] - params.rho10) / (0.1 * params.rho10), 0.0, 1.0));
   }
   const auto tl = std::chrono::steady_clock::now();
-  lbm::LightingSolver lighting(grid, cloud, lp);
-  const int light_steps = lighting.solve();
-  const auto light = lighting.light();
+  std::vector<float> light;
+  int light_steps = 0;
+  double light_residual = 0;
+  if (mpi) {
+    auto r = app::run_lighting_mpi(grid, cloud, lp);
+    light_steps = r.steps;
+    light_residual = r.residual;
+    light = app::gather_slabs(grid, r.local_light);
+    cloud = app::gather_slabs(grid, cloud);
+    if (!percolated.empty()) percolated = app::gather_slabs(grid, percolated);
+    if (app::mpi_rank() != 0) return 0;  // rank 0 casts the rays and writes the outputs
+  } else {
+    lbm::LightingSolver lighting(grid, cloud, lp);
+    light_steps = lighting.solve();
+    light_residual = lighting.residual();
+    light = lighting.light();
+  }
   const double t_light = std::chrono::duration<double>(std::chrono::steady_clock::now() - tl).count();
   const auto tr = std::chrono::steady_clock::now();
   lbm::RaycastParams rp;
@@ -470,8 +500,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
                            done > 0 ? t_water / static_cast<double>(done) : 0.0, threads_text());
   if (o.percolation > 0)
     std::cout << fmt::format("percolation K={}: {} steps in {:.2f} s\n", o.percolation, perc_steps, t_perc);
-  std::cout << fmt::format("lighting: {} steps to residual {:.1e} in {:.2f} s\n", light_steps, lighting.residual(),
-                           t_light);
+  std::cout << fmt::format("lighting: {} steps to residual {:.1e} in {:.2f} s\n", light_steps, light_residual, t_light);
   std::cout << fmt::format("ray casting {}x{}: {:.2f} s\n", rp.width, rp.height, t_ray);
   spdlog::info("wrote {} in {:.1f} s", (out / "lbm.nc").string(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());

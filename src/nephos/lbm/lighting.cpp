@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "nephos/core/error.hpp"
 
 namespace nephos::lbm {
@@ -87,17 +89,39 @@ double mean_cosine(const PhaseMatrix& p, int j) {
 }
 
 LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params)
-    : g_(grid), p_(params), phase_(phase_matrix(params.asymmetry)), isotropic_(params.asymmetry == 0) {
-  if (density.size() != g_.cells()) throw ValueError("density field does not match the lighting grid");
+    : LightingSolver(grid, std::move(density), params, 0, grid.ny, 0) {}
+
+LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params, int y_begin, int y_end)
+    : LightingSolver(grid, std::move(density), params, y_begin, y_end, 1) {}
+
+LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params, int y_begin, int y_end,
+                               int halo)
+    : global_(grid),
+      y_begin_(y_begin),
+      halo_(halo),
+      p_(params),
+      phase_(phase_matrix(params.asymmetry)),
+      isotropic_(params.asymmetry == 0) {
+  if (!(y_begin >= 0 && y_begin < y_end && y_end <= grid.ny))
+    throw ValueError(
+        fmt::format("lighting slab rows {}..{} outside the grid's 0..{}", y_begin, y_end - 1, grid.ny - 1));
+  const int own = y_end - y_begin;
+  g_ = {grid.nx, own + 2 * halo, grid.nz};
+  const std::size_t own_cells = static_cast<std::size_t>(grid.nx) * own * grid.nz;
+  if (density.size() != own_cells) throw ValueError("density field does not match the lighting grid");
   const std::size_t n = g_.cells();
-  sigma_s_.resize(n);
-  sigma_a_.resize(n);
-  for (std::size_t c = 0; c < n; ++c) {
-    const double rho = std::clamp(static_cast<double>(density[c]), 0.0, 1.0);
-    sigma_s_[c] = static_cast<float>(p_.sigma_s_per_density * rho);
-    sigma_a_[c] = static_cast<float>(p_.sigma_a_per_density * rho);
-    if (sigma_s_[c] + sigma_a_[c] > 1.0f) throw ValueError("sigma_s + sigma_a must not exceed 1 per lattice step");
-  }
+  sigma_s_.assign(n, 0.0f);  // halo rows: never collided
+  sigma_a_.assign(n, 0.0f);
+  for (int z = 0; z < grid.nz; ++z)
+    for (int yo = 0; yo < own; ++yo)
+      for (int x = 0; x < grid.nx; ++x) {
+        const std::size_t c = g_.index(x, halo + yo, z);
+        const double rho =
+            std::clamp(static_cast<double>(density[(static_cast<std::size_t>(z) * own + yo) * grid.nx + x]), 0.0, 1.0);
+        sigma_s_[c] = static_cast<float>(p_.sigma_s_per_density * rho);
+        sigma_a_[c] = static_cast<float>(p_.sigma_a_per_density * rho);
+        if (sigma_s_[c] + sigma_a_[c] > 1.0f) throw ValueError("sigma_s + sigma_a must not exceed 1 per lattice step");
+      }
   i_.assign(g_.population_size(light_dirs), 0.0f);  // padding between directions stays zero
   next_.assign(i_.size(), 0.0f);
   if (!p_.periodic) {
@@ -128,35 +152,111 @@ LightingSolver::LightingSolver(Grid3 grid, std::vector<float> density, LightingP
   }
 }
 
+std::size_t LightingSolver::local_cell(std::size_t cell) const {
+  const auto nx = static_cast<std::size_t>(global_.nx), ny = static_cast<std::size_t>(global_.ny);
+  const int x = static_cast<int>(cell % nx), y = static_cast<int>(cell / nx % ny),
+            z = static_cast<int>(cell / (nx * ny));
+  const int yl = y - y_begin_ + halo_;
+  if (yl < halo_ || yl >= g_.ny - halo_) throw ValueError(fmt::format("cell row {} is not in this lighting slab", y));
+  return g_.index(x, yl, z);
+}
+
 void LightingSolver::add_pulse(std::size_t cell, double amount) {
-  const std::size_t stride = g_.direction_stride();
+  const std::size_t stride = g_.direction_stride(), c = local_cell(cell);
   for (int k = 0; k < light_dirs; ++k)
-    i_[static_cast<std::size_t>(k) * stride + cell] += static_cast<float>(amount * (k < 6 ? 1.0 / 12.0 : 1.0 / 24.0));
+    i_[static_cast<std::size_t>(k) * stride + c] += static_cast<float>(amount * (k < 6 ? 1.0 / 12.0 : 1.0 / 24.0));
 }
 
 void LightingSolver::add_beam(std::size_t cell, int dir, double amount) {
-  i_[static_cast<std::size_t>(dir - 1) * g_.direction_stride() + cell] += static_cast<float>(amount);
+  i_[static_cast<std::size_t>(dir - 1) * g_.direction_stride() + local_cell(cell)] += static_cast<float>(amount);
 }
 
 double LightingSolver::total_in_direction(int dir) const {
   double s = 0;
-  const std::size_t n = g_.cells(), stride = g_.direction_stride();
-  for (std::size_t c = 0; c < n; ++c) s += i_[static_cast<std::size_t>(dir - 1) * stride + c];
+  const std::size_t stride = g_.direction_stride(), nx = static_cast<std::size_t>(g_.nx);
+  for (int z = 0; z < g_.nz; ++z)
+    for (int y = halo_; y < g_.ny - halo_; ++y) {
+      const float* row = i_.data() + static_cast<std::size_t>(dir - 1) * stride + g_.index(0, y, z);
+      for (std::size_t x = 0; x < nx; ++x) s += row[x];
+    }
   return s;
 }
 
 double LightingSolver::total() const {
   double s = 0;
-  for (float v : i_) s += v;
+  for (int k = 1; k <= light_dirs; ++k) {
+    const std::size_t stride = g_.direction_stride(), nx = static_cast<std::size_t>(g_.nx);
+    for (int z = 0; z < g_.nz; ++z)
+      for (int y = halo_; y < g_.ny - halo_; ++y) {
+        const float* row = i_.data() + static_cast<std::size_t>(k - 1) * stride + g_.index(0, y, z);
+        for (std::size_t x = 0; x < nx; ++x) s += row[x];
+      }
+  }
   return s;
 }
 
 std::vector<float> LightingSolver::light() const {
-  const std::size_t n = g_.cells(), stride = g_.direction_stride();
-  std::vector<float> out(n, 0.0f);
+  const int own = g_.ny - 2 * halo_;
+  const std::size_t stride = g_.direction_stride(), nx = static_cast<std::size_t>(g_.nx);
+  std::vector<float> out(nx * static_cast<std::size_t>(own) * static_cast<std::size_t>(g_.nz), 0.0f);
   for (int k = 0; k < light_dirs; ++k)
-    for (std::size_t c = 0; c < n; ++c) out[c] += i_[static_cast<std::size_t>(k) * stride + c];
+    for (int z = 0; z < g_.nz; ++z)
+      for (int yo = 0; yo < own; ++yo) {
+        const float* row = i_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, halo_ + yo, z);
+        float* o = out.data() + (static_cast<std::size_t>(z) * own + yo) * nx;
+        for (std::size_t x = 0; x < nx; ++x) o[x] += row[x];
+      }
   return out;
+}
+
+std::vector<float> LightingSolver::leaving(Side side) const {
+  if (!is_slab()) throw ValueError("leaving() of a lighting solver that is not a slab");
+  const int cy = side == Side::below ? -1 : 1, y = side == Side::below ? 0 : g_.ny - 1;
+  const std::size_t stride = g_.direction_stride(), nx = static_cast<std::size_t>(g_.nx);
+  std::vector<float> out;
+  out.reserve(5 * nx * static_cast<std::size_t>(g_.nz));
+  for (int z = 0; z < g_.nz; ++z)
+    for (int k = 0; k < light_dirs; ++k)
+      if (d3q19::cy[static_cast<std::size_t>(k + 1)] == cy) {
+        const float* row = i_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, y, z);
+        out.insert(out.end(), row, row + nx);
+      }
+  return out;
+}
+
+void LightingSolver::set_arrivals(Side side, const std::vector<float>& photons) {
+  if (!is_slab()) throw ValueError("set_arrivals() on a lighting solver that is not a slab");
+  const std::size_t nx = static_cast<std::size_t>(g_.nx), stride = g_.direction_stride();
+  if (photons.size() != 5 * nx * static_cast<std::size_t>(g_.nz))
+    throw ValueError("lighting halo photons of the wrong size");
+  const int own_end = y_begin_ + g_.ny - 2 * halo_;
+  const bool face = side == Side::below ? y_begin_ == 0 : own_end == global_.ny;
+  if (face && !p_.periodic) return;  // the box's face: the step injected the sunlight there
+  // Arriving from below, the photons travel up (c_y = +1) into the first own row; from above,
+  // down into the last. A row whose source lies beyond the box's bottom or top face (z - c_z
+  // outside it) keeps the sunlight the step injected: the neighbour pushed nothing there.
+  const int cy = side == Side::below ? 1 : -1, y = side == Side::below ? halo_ : g_.ny - 1 - halo_;
+  const float* src = photons.data();
+  for (int z = 0; z < g_.nz; ++z)
+    for (int k = 0; k < light_dirs; ++k) {
+      const auto ku = static_cast<std::size_t>(k + 1);
+      if (d3q19::cy[ku] != cy) continue;
+      const int sz = z - d3q19::cz[ku];
+      if (p_.periodic || (sz >= 0 && sz < g_.nz))
+        std::copy_n(src, nx, i_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, y, z));
+      src += nx;
+    }
+}
+
+PhotonBalance LightingSolver::balance_of_planes(const std::vector<std::array<double, 3>>& planes) {
+  PhotonBalance b;
+  for (const auto& p : planes) b.absorbed += p[0], b.inflow += p[1], b.outflow += p[2];
+  return b;
+}
+
+void LightingSolver::set_balance(const PhotonBalance& b) {
+  balance_ = b;
+  residual_ = b.inflow > 0 ? std::abs(b.inflow - b.outflow - b.absorbed) / b.inflow : 0.0;
 }
 
 double LightingSolver::step() {
@@ -167,24 +267,30 @@ double LightingSolver::step() {
   // one read and one write of the photon field per step (144 B per cell, plus 8 B of sigma).
   // Open boundaries: photons pushed out of the box are counted as outflow; the cells they
   // leave empty (the x edge of a shifted row, and whole rows whose source lies outside) receive
-  // the sunlight injected along that direction.
+  // the sunlight injected along that direction. A slab pushes the photons that leave it in y
+  // into its halo rows, for the exchange; only the whole grid's faces are open.
   const std::size_t stride = g_.direction_stride();
-  const int nx = g_.nx, ny = g_.ny, nz = g_.nz;
-  const bool periodic = p_.periodic;
+  const int nx = g_.nx, ny = g_.ny, nz = g_.nz, own = g_.ny - 2 * halo_, global_ny = global_.ny;
+  const bool periodic = p_.periodic, slab = is_slab();
   std::array<float, light_dirs> inject{};
   if (!periodic)
     for (const auto& [k, w] : sun_) inject[static_cast<std::size_t>(k)] = static_cast<float>(w);
-  // Photon balance per row, summed in row order afterwards: the same total for any thread count
-  // (an OpenMP reduction would round differently, and the residual decides when to stop).
-  const std::size_t rows = static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz);
-  std::vector<std::array<double, 3>> row_balance(rows, {0, 0, 0});  // absorbed, inflow, outflow
+  // Photon balance per row, summed over z per row plane and then over the planes in y order:
+  // the same total for any thread count (an OpenMP reduction would round differently, and the
+  // residual decides when to stop) and for any cut into slabs.
+  const std::size_t rows = static_cast<std::size_t>(own) * static_cast<std::size_t>(nz);
+  std::vector<std::array<double, 3>> row_balance(rows, {0, 0, 0});  // [y][z]: absorbed, inflow, outflow
+  auto balance_at = [&](int yo, int z) -> std::array<double, 3>& {
+    return row_balance[static_cast<std::size_t>(yo) * static_cast<std::size_t>(nz) + static_cast<std::size_t>(z)];
+  };
 #pragma omp parallel
   {
     const auto nxu = static_cast<std::size_t>(nx);
     std::vector<float> post(light_dirs * nxu), sum(nxu), scat(nxu), shifted(nxu);
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < nz; ++z)
-      for (int y = 0; y < ny; ++y) {
+      for (int yo = 0; yo < own; ++yo) {
+        const int y = halo_ + yo, yg = y_begin_ + yo;  // local and global row
         const std::size_t base = g_.index(0, y, z);
         double absorbed = 0, inflow = 0, outflow = 0;
         const float* ss = sigma_s_.data() + base;
@@ -217,13 +323,15 @@ double LightingSolver::step() {
         for (int k = 0; k < light_dirs; ++k) {
           const auto ku = static_cast<std::size_t>(k + 1);
           const int cx = d3q19::cx[ku];
-          int dy = y + d3q19::cy[ku], dz = z + d3q19::cz[ku];
+          const int dyg = yg + d3q19::cy[ku];
+          int dz = z + d3q19::cz[ku];
           const float* pk = post.data() + static_cast<std::size_t>(k) * nxu;
-          if (!periodic && (dy < 0 || dy >= ny || dz < 0 || dz >= nz)) {  // the whole row leaves
+          if (!periodic && (dyg < 0 || dyg >= global_ny || dz < 0 || dz >= nz)) {  // the whole row leaves
             for (int x = 0; x < nx; ++x) outflow += pk[x];
             continue;
           }
-          dy = (dy + ny) % ny, dz = (dz + nz) % nz;
+          const int dy = slab ? y + d3q19::cy[ku] : (y + d3q19::cy[ku] + ny) % ny;  // a slab: maybe a halo row
+          dz = (dz + nz) % nz;
           const float inj = inject[static_cast<std::size_t>(k)];
           const float* row = pk;
           if (cx == 1) {
@@ -239,39 +347,43 @@ double LightingSolver::step() {
           }
           store_streaming(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, dy, dz), row, nxu);
         }
-        auto& rb =
-            row_balance[static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)];
+        auto& rb = balance_at(yo, z);
         rb[0] += absorbed, rb[1] += inflow, rb[2] += outflow;
       }
     // Rows that no source row inside the box feeds: all sunlight of their direction.
     if (!periodic) {
 #pragma omp for collapse(2) schedule(static)
       for (int z = 0; z < nz; ++z)
-        for (int y = 0; y < ny; ++y)
+        for (int yo = 0; yo < own; ++yo)
           for (int k = 0; k < light_dirs; ++k) {
             const auto ku = static_cast<std::size_t>(k + 1);
-            const int sy = y - d3q19::cy[ku], sz = z - d3q19::cz[ku];
-            if (sy >= 0 && sy < ny && sz >= 0 && sz < nz) continue;
+            const int sy = y_begin_ + yo - d3q19::cy[ku], sz = z - d3q19::cz[ku];
+            if (sy >= 0 && sy < global_ny && sz >= 0 && sz < nz) continue;
             const float inj = inject[static_cast<std::size_t>(k)];
-            std::fill_n(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, y, z), nx, inj);
-            row_balance[static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)][1] +=
-                static_cast<double>(inj) * nx;
+            std::fill_n(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, halo_ + yo, z), nx, inj);
+            balance_at(yo, z)[1] += static_cast<double>(inj) * nx;
           }
     }
     stream_fence();
   }
   i_.swap(next_);
-  double absorbed = 0, inflow = 0, outflow = 0;
-  for (const auto& rb : row_balance) absorbed += rb[0], inflow += rb[1], outflow += rb[2];
-  balance_ = {inflow, outflow, absorbed};
-  residual_ = inflow > 0 ? std::abs(inflow - outflow - absorbed) / inflow : 0.0;
+  plane_balance_.assign(static_cast<std::size_t>(own), {0, 0, 0});
+  for (int yo = 0; yo < own; ++yo)
+    for (int z = 0; z < nz; ++z)
+      for (int q = 0; q < 3; ++q)
+        plane_balance_[static_cast<std::size_t>(yo)][static_cast<std::size_t>(q)] +=
+            balance_at(yo, z)[static_cast<std::size_t>(q)];
+  set_balance(balance_of_planes(plane_balance_));
   return residual_;
 }
 
-int LightingSolver::solve() {
+int LightingSolver::solve(const std::function<void(LightingSolver&)>& after_step) {
+  if (is_slab() && !after_step)
+    throw ValueError("a lighting slab solves only with an exchange of its halo rows after every step");
   int it = 0, quiet = 0;
   while (it < p_.max_iterations) {
     step();
+    if (after_step) after_step(*this);
     ++it;
     // Converged once the photon balance has held for 10 consecutive steps.
     quiet = residual_ < p_.tolerance ? quiet + 1 : 0;

@@ -14,6 +14,7 @@
 //   D = (<|c|^2> / 6) (2 - sigma_s) / sigma_s = (2 / sigma_s - 1) / 4,
 // Geist et al.'s D = (2/sigma_t - 1) / (4 (1 + sigma_a)) at sigma_a = 0 (tested).
 #include <array>
+#include <functional>
 #include <vector>
 
 #include "nephos/core/huge_page_allocator.hpp"
@@ -51,13 +52,32 @@ class LightingSolver {
  public:
   /// `density` in [0, 1] per cell (e.g. the percolated cloud fraction).
   LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params);
-  /// One collision + streaming step; returns the relative change of the total photon count.
+  /// A slab of `grid` for domain decomposition across processes: rows y_begin <= y < y_end
+  /// (`density` holds those rows only, [z][y - y_begin][x]) plus one halo row on each side,
+  /// into which the photons leaving the slab in y are streamed. After every step, the
+  /// neighbours swap them: set_arrivals(side, its leaving(opposite side)). The sunlight enters
+  /// only through the whole grid's faces, so the slabs step exactly as the whole grid does.
+  LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params, int y_begin, int y_end);
+  /// One collision + streaming step; returns the relative change of the total photon count. A
+  /// slab's residual and balance are its own until set_balance() gives the whole grid's.
   double step();
-  /// Steps until the change falls below the tolerance; returns the steps taken.
-  int solve();
+  /// Steps until the change falls below the tolerance; returns the steps taken. A slab passes
+  /// `after_step`, which exchanges the photons that crossed into the halo rows and sets the
+  /// whole grid's balance (set_balance); every slab calls it in the same order.
+  int solve(const std::function<void(LightingSolver&)>& after_step = {});
   double residual() const { return residual_; }
   const PhotonBalance& balance() const { return balance_; }
-  /// Total photon density per cell (sum over directions): the light field.
+  /// The photon balance of the last step per own row plane y (summed over z in order): what
+  /// the whole grid's balance sums in y order (balance_of_planes), so that slabs reproduce it
+  /// to the bit.
+  const std::vector<std::array<double, 3>>& plane_balance() const { return plane_balance_; }
+  /// Sums plane balances (absorbed, inflow, outflow) in order.
+  static PhotonBalance balance_of_planes(const std::vector<std::array<double, 3>>& planes);
+  /// Sets the balance (and from it the residual) of the last step: a slab's driver, with the
+  /// whole grid's.
+  void set_balance(const PhotonBalance& b);
+  /// Total photon density per cell (sum over directions): the light field (a slab: its rows,
+  /// [z][y - y_begin][x]).
   std::vector<float> light() const;
   double total() const;
   /// Puts photons `amount` at cell, spread over directions by the lattice weights (tests).
@@ -66,12 +86,24 @@ class LightingSolver {
   void add_beam(std::size_t cell, int dir, double amount);
   /// Photons of D3Q19 direction `dir` (1..18) summed over the grid.
   double total_in_direction(int dir) const;
-  const Grid3& grid() const { return g_; }
+  const Grid3& grid() const { return global_; }
   /// The lattice directions the sun enters along and their weights (sum 1).
   const std::vector<std::pair<int, double>>& sun_directions() const { return sun_; }
 
+  /// Halo exchange of a slab: leaving(side) holds the photons this step streamed out of the
+  /// slab on that side (its halo row there, the directions that point that way; [z][dir][x]);
+  /// set_arrivals(side, photons) puts the neighbour's on that side into this slab's edge row.
+  /// At a face of the whole grid that is not periodic, arrivals are ignored (sunlight enters).
+  enum class Side { below, above };
+  std::vector<float> leaving(Side side) const;
+  void set_arrivals(Side side, const std::vector<float>& photons);
+  bool is_slab() const { return halo_ > 0; }
+
  private:
-  Grid3 g_;
+  LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params, int y_begin, int y_end, int halo);
+  std::size_t local_cell(std::size_t global_cell) const;
+  Grid3 global_, g_;  // the whole grid; the stored grid (a slab: its rows and halo rows)
+  int y_begin_ = 0, halo_ = 0;
   LightingParams p_;
   std::vector<float> sigma_s_, sigma_a_;
   // [dir][cell], photons arriving at each cell (before its collision); huge pages: 2 MiB-aligned
@@ -82,6 +114,7 @@ class LightingSolver {
   std::vector<std::pair<int, double>> sun_;
   double residual_ = 1;
   PhotonBalance balance_;
+  std::vector<std::array<double, 3>> plane_balance_;
 };
 
 }  // namespace nephos::lbm

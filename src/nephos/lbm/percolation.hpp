@@ -11,6 +11,7 @@
 // Without the optional extinction rule (cld' = cld AND NOT ext, ext with probability p_ext)
 // a cloud site never switches off. States are bit-packed along x (64 cells per word).
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "nephos/lbm/lattice.hpp"
@@ -32,31 +33,62 @@ class Percolation {
   /// Seeds the refined grid from the vapour density on `coarse` (section 4.2).
   Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
               std::uint64_t seed);
-  /// Makes fine site (x, y, z) active (and humid): explicit seeding, e.g. for tests.
+  /// A slab of the refined grid, for domain decomposition across processes: the sites of the
+  /// coarse rows y_begin <= y < y_end (`vapour` holds those rows only, [z][y - y_begin][x], as
+  /// a water-model slab's vapour()), plus two halo rows of activation on each side, which
+  /// set_halo() fills from the neighbouring slabs' edge_rows() before every step (periodic in
+  /// y: the last slab's neighbour above is the first). Seeding and extinction hash global site
+  /// indices, so the slabs together step exactly as the whole grid does.
+  Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
+              std::uint64_t seed, int y_begin, int y_end);
+  /// Makes fine site (x, y, z) active (and humid): explicit seeding, e.g. for tests. y is the
+  /// global fine row, which must lie in this slab.
   void set_active(int x, int y, int z);
-  /// One synchronous update; returns the number of active sites after it.
+  /// One synchronous update; returns the number of active sites after it (in this slab).
   std::size_t step();
-  /// Steps until no site is active (or max_steps); returns the number of steps taken.
-  int run();
-  /// Cloud fraction per coarse cell: the mean of cld over each K^3 block.
+  /// Steps until no site is active (or max_steps); returns the number of steps taken. A slab
+  /// passes `exchange`, which fills its halo rows (set_halo) before each step, and `total`,
+  /// the sum of a count over all slabs; every slab calls both in the same order.
+  int run(const std::function<void(Percolation&)>& exchange = {},
+          const std::function<std::size_t(std::size_t)>& total = {});
+  /// Cloud fraction per coarse cell: the mean of cld over each K^3 block (a slab: its coarse
+  /// rows, [z][y - y_begin][x]).
   std::vector<float> coarse_density() const;
-  /// Counts of sites in each state.
+  /// Counts of sites in each state (a slab: its own sites).
   std::size_t count_humid() const { return popcount(hum_); }
   std::size_t count_active() const { return popcount(act_); }
   std::size_t count_cloud() const { return popcount(cld_); }
-  /// The cloud field projected along z (OR over the column), fine resolution, row-major y, x.
+  /// The cloud field projected along z (OR over the column), fine resolution, row-major y, x
+  /// (a slab: its own rows).
   std::vector<std::uint8_t> projected_cloud() const;
   const Grid3& fine() const { return fine_; }
+  /// Site (x, y, z) is cloud; y is the global fine row, which must lie in this slab.
   bool cloud(int x, int y, int z) const { return bit(cld_, x, y, z); }
 
+  /// Halo exchange of a slab. edge_rows(side): the activation of the two rows of this slab
+  /// nearest `side`, every z ([z][row][word]); set_halo(side, rows): the neighbour's on that
+  /// side (its edge_rows of the opposite side) into this slab's halo rows there.
+  enum class Side { below, above };
+  std::vector<std::uint64_t> edge_rows(Side side) const;
+  void set_halo(Side side, const std::vector<std::uint64_t>& rows);
+  bool is_slab() const { return halo_ > 0; }
+
  private:
-  static std::size_t popcount(const std::vector<std::uint64_t>& v);
-  bool bit(const std::vector<std::uint64_t>& v, int x, int y, int z) const;
-  std::size_t row(int y, int z) const { return (static_cast<std::size_t>(z) * fine_.ny + y) * words_; }
-  Grid3 coarse_, fine_;
+  void seed_sites(const std::vector<float>& vapour);
+  std::size_t popcount(const std::vector<std::uint64_t>& v) const;
+  bool bit(const std::vector<std::uint64_t>& v, int x, int y, int z) const;  // y: global fine row
+  bool bit_local(const std::vector<std::uint64_t>& v, int x, int yl, int z) const {
+    return (v[row(yl, z) + static_cast<std::size_t>(x >> 6)] >> (x & 63)) & 1ULL;
+  }
+  // Word offset of local row yl (halo rows first in a slab) of plane z.
+  std::size_t row(int yl, int z) const { return (static_cast<std::size_t>(z) * local_ny_ + yl) * words_; }
+  int local_row(int y_global) const;
+  Grid3 coarse_, fine_;  // the whole grid, coarse and refined
   PercolationParams p_;
   std::uint64_t seed_;
-  int words_;  // 64-bit words per fine row
+  int words_;                              // 64-bit words per fine row
+  int y_begin_ = 0, y_end_ = 0;            // coarse rows of this slab (the whole grid: 0, ny)
+  int halo_ = 0, own_ = 0, local_ny_ = 0;  // fine halo rows per side (0: whole grid), own rows, stored rows
   long step_ = 0;
   std::vector<std::uint64_t> hum_, act_, cld_, next_act_, next_hum_;
 };
