@@ -5,6 +5,7 @@ Run by CTest with the path of the built binary: cli_test.py NEPHOS_BINARY
 Uses Debian's python3 (numpy, xarray, netCDF4) and ecCodes' grib_copy.
 """
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -281,6 +282,39 @@ class Lbm(unittest.TestCase):
             self.assertTrue(np.all((p >= 0) & (p <= 1)))
             for v in ("vapour_density", "temperature", "percolated_density", "light"):
                 self.assertTrue(np.array_equal(a[v][:], c[v][:]), v)
+
+    def test_progress_line_per_stage_on_a_terminal(self):
+        # Progress lines are drawn only on a terminal (stderr here is a pseudo-terminal) and
+        # after NEPHOS_PROGRESS_DELAY_S (0: at once): one per stage, the open-ended
+        # percolation and lighting counting steps with what decides their end.
+        import pty
+        with tempfile.TemporaryDirectory() as d:
+            leader, follower = pty.openpty()
+            env = dict(os.environ, NEPHOS_PROGRESS_DELAY_S="0")
+            p = subprocess.Popen([NEPHOS, "lbm", "--grid", "16x16x16", "--iterations", "12", "--size", "64x48",
+                                  "--out", str(Path(d) / "a")], stdout=subprocess.PIPE, stderr=follower, env=env)
+            os.close(follower)
+            err = b""
+            while True:
+                try:
+                    chunk = os.read(leader, 4096)
+                except OSError:  # the terminal's other end closed: the process has exited
+                    break
+                if not chunk:
+                    break
+                err += chunk
+            out, _ = p.communicate(timeout=120)
+            os.close(leader)
+            self.assertEqual(p.returncode, 0, err.decode(errors="replace"))
+            text = err.decode(errors="replace")
+            self.assertRegex(text, r"water model +\[#+\] 100\.0%")
+            self.assertRegex(text, r"percolation +\d+ steps +\d+ active sites")
+            self.assertRegex(text, r"lighting +\d+ steps +residual \d\.\de-\d+ \(to 1e-05\)")
+            steps = re.search(r"lighting: (\d+) steps", out.decode()).group(1)
+            self.assertRegex(text, r"lighting +%s steps" % steps)  # the final line: every step
+            # Quiet and piped runs draw nothing.
+            r = run("-q", "lbm", "--grid", "16x16x16", "--iterations", "2", "--size", "64x48", "--out", Path(d) / "b")
+            self.assertNotIn("steps  residual", r.stderr)
 
     def test_bad_input(self):
         with tempfile.TemporaryDirectory() as d:

@@ -196,36 +196,40 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
 }
 
 PercolationMpiResult run_percolation_mpi(const lbm::Grid3& grid, const std::vector<float>& local_vapour,
-                                         const lbm::PercolationParams& params, std::uint64_t seed) {
+                                         const lbm::PercolationParams& params, std::uint64_t seed,
+                                         const std::function<void(int, std::size_t)>& after_step) {
   const int rank = mpi_rank(), size = mpi_size();
   const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
   lbm::Percolation perc = on_all_ranks([&] { return lbm::Percolation(grid, local_vapour, params, seed, y0, y1); });
   const int up = (rank + 1) % size, down = (rank + size - 1) % size;  // periodic in y
   PercolationMpiResult result;
-  result.steps = perc.run(
-      [&](lbm::Percolation& p) {
-        using Side = lbm::Percolation::Side;
-        const auto low = p.edge_rows(Side::below), high = p.edge_rows(Side::above);
-        std::vector<std::uint64_t> from_below(high.size()), from_above(low.size());
-        const int n = static_cast<int>(low.size());
-        MPI_Sendrecv(high.data(), n, MPI_UINT64_T, up, 3, from_below.data(), n, MPI_UINT64_T, down, 3, MPI_COMM_WORLD,
-                     MPI_STATUS_IGNORE);
-        MPI_Sendrecv(low.data(), n, MPI_UINT64_T, down, 4, from_above.data(), n, MPI_UINT64_T, up, 4, MPI_COMM_WORLD,
-                     MPI_STATUS_IGNORE);
-        p.set_halo(Side::below, from_below);
-        p.set_halo(Side::above, from_above);
-      },
-      [](std::size_t n) {
-        unsigned long long mine = n, total = 0;  // an integer sum: exact in any order
-        MPI_Allreduce(&mine, &total, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-        return static_cast<std::size_t>(total);
-      });
+  lbm::Percolation::RunHooks hooks;
+  hooks.exchange = [&](lbm::Percolation& p) {
+    using Side = lbm::Percolation::Side;
+    const auto low = p.edge_rows(Side::below), high = p.edge_rows(Side::above);
+    std::vector<std::uint64_t> from_below(high.size()), from_above(low.size());
+    const int n = static_cast<int>(low.size());
+    MPI_Sendrecv(high.data(), n, MPI_UINT64_T, up, 3, from_below.data(), n, MPI_UINT64_T, down, 3, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+    MPI_Sendrecv(low.data(), n, MPI_UINT64_T, down, 4, from_above.data(), n, MPI_UINT64_T, up, 4, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+    p.set_halo(Side::below, from_below);
+    p.set_halo(Side::above, from_above);
+  };
+  hooks.total = [](std::size_t n) {
+    unsigned long long mine = n, total = 0;  // an integer sum: exact in any order
+    MPI_Allreduce(&mine, &total, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    return static_cast<std::size_t>(total);
+  };
+  hooks.after_step = after_step;
+  result.steps = perc.run(hooks);
   result.local_density = perc.coarse_density();
   return result;
 }
 
 LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<float>& local_density,
-                                   const lbm::LightingParams& params) {
+                                   const lbm::LightingParams& params,
+                                   const std::function<void(const lbm::LightingSolver&)>& after_step) {
   const int rank = mpi_rank(), size = mpi_size();
   const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
   lbm::LightingSolver solver = on_all_ranks([&] { return lbm::LightingSolver(grid, local_density, params, y0, y1); });
@@ -252,6 +256,7 @@ LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<flo
     MPI_Allgatherv(s.plane_balance().data()->data(), 3 * static_cast<int>(s.plane_balance().size()), MPI_DOUBLE,
                    planes.data()->data(), counts.data(), displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
     s.set_balance(lbm::LightingSolver::balance_of_planes(planes));
+    if (after_step) after_step(s);
   });
   result.residual = solver.residual();
   result.local_light = solver.light();

@@ -6,6 +6,7 @@
 // each step. Results are bit-identical to one process.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 #include "nephos/lbm/lighting.hpp"
@@ -51,23 +52,27 @@ WaterResult run_water_mpi(const lbm::Grid3& grid, const lbm::WaterModelParams& p
                           const WaterMpiOptions& options);
 
 /// Nagel-Raschke percolation of this rank's slab (refined rows of its lattice rows), two halo
-/// rows of activation exchanged with the neighbouring ranks before every step.
+/// rows of activation exchanged with the neighbouring ranks before every step; `after_step`
+/// (optional) gets the step and the whole grid's active sites after it.
 struct PercolationMpiResult {
   int steps = 0;
   std::vector<float> local_density;  ///< cloud fraction of this rank's slab, [z][y - slab_begin][x]
 };
 PercolationMpiResult run_percolation_mpi(const lbm::Grid3& grid, const std::vector<float>& local_vapour,
-                                         const lbm::PercolationParams& params, std::uint64_t seed);
+                                         const lbm::PercolationParams& params, std::uint64_t seed,
+                                         const std::function<void(int, std::size_t)>& after_step = {});
 
 /// Lattice-Boltzmann lighting of this rank's slab to the steady state of the whole grid: the
 /// photons that cross a cut are exchanged after every step, and the photon balance is summed
-/// over the ranks' row planes in y order, so every rank stops at the same step.
+/// over the ranks' row planes in y order, so every rank stops at the same step. `after_step`
+/// (optional) sees the solver after each step, with the whole grid's balance.
 struct LightingMpiResult {
   int steps = 0;
   double residual = 0;
   std::vector<float> local_light;  ///< this rank's slab, [z][y - slab_begin][x]
 };
 LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<float>& local_density,
-                                   const lbm::LightingParams& params);
+                                   const lbm::LightingParams& params,
+                                   const std::function<void(const lbm::LightingSolver&)>& after_step = {});
 
 }  // namespace nephos::app

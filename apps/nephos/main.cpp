@@ -431,13 +431,19 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     lbm::PercolationParams pp;
     pp.refinement = o.percolation;
     pp.rho10 = params.rho10;
+    // Steps to the end of activity are not known in advance: the line counts them.
+    Progress progress("percolation", Progress::OpenEnded{});
+    auto on_step = [&](int, std::size_t active) {
+      progress.set_detail(fmt::format("{} active sites", active));
+      progress.advance();
+    };
     if (mpi) {
-      auto r = app::run_percolation_mpi(grid, local_vapour, pp, g.seed);
+      auto r = app::run_percolation_mpi(grid, local_vapour, pp, g.seed, on_step);
       perc_steps = r.steps;
       percolated = std::move(r.local_density);  // this rank's slab until gathered
     } else {
       lbm::Percolation perc(grid, vapour, pp, g.seed);
-      perc_steps = perc.run();
+      perc_steps = perc.run({.after_step = on_step});
       percolated = perc.coarse_density();
     }
     t_perc = std::chrono::duration<double>(std::chrono::steady_clock::now() - tp).count();
@@ -454,20 +460,29 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   std::vector<float> light;
   int light_steps = 0;
   double light_residual = 0;
-  if (mpi) {
-    auto r = app::run_lighting_mpi(grid, cloud, lp);
-    light_steps = r.steps;
-    light_residual = r.residual;
-    light = app::gather_slabs(grid, r.local_light);
-    cloud = app::gather_slabs(grid, cloud);
-    if (!percolated.empty()) percolated = app::gather_slabs(grid, percolated);
-    if (app::mpi_rank() != 0) return 0;  // rank 0 casts the rays and writes the outputs
-  } else {
-    lbm::LightingSolver lighting(grid, cloud, lp);
-    light_steps = lighting.solve();
-    light_residual = lighting.residual();
-    light = lighting.light();
+  {
+    // Steps to the steady state are not known in advance: the line counts them and shows the
+    // photon-balance residual against its tolerance.
+    Progress progress("lighting", Progress::OpenEnded{});
+    auto on_step = [&](const lbm::LightingSolver& s) {
+      progress.set_detail(fmt::format("residual {:.1e} (to {:.0e})", s.residual(), lp.tolerance));
+      progress.advance();
+    };
+    if (mpi) {
+      auto r = app::run_lighting_mpi(grid, cloud, lp, on_step);
+      light_steps = r.steps;
+      light_residual = r.residual;
+      light = app::gather_slabs(grid, r.local_light);
+      cloud = app::gather_slabs(grid, cloud);
+      if (!percolated.empty()) percolated = app::gather_slabs(grid, percolated);
+    } else {
+      lbm::LightingSolver lighting(grid, cloud, lp);
+      light_steps = lighting.solve(on_step);
+      light_residual = lighting.residual();
+      light = lighting.light();
+    }
   }
+  if (mpi && app::mpi_rank() != 0) return 0;  // rank 0 casts the rays and writes the outputs
   const double t_light = std::chrono::duration<double>(std::chrono::steady_clock::now() - tl).count();
   const auto tr = std::chrono::steady_clock::now();
   lbm::RaycastParams rp;

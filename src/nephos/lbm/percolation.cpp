@@ -195,17 +195,17 @@ std::size_t Percolation::step() {
   return active;
 }
 
-int Percolation::run(const std::function<void(Percolation&)>& exchange,
-                     const std::function<std::size_t(std::size_t)>& total) {
-  if (is_slab() && !(exchange && total))
+int Percolation::run(const RunHooks& hooks) {
+  if (is_slab() && !(hooks.exchange && hooks.total))
     throw ValueError("a percolation slab runs only with a halo exchange and a total over the slabs");
-  auto sum = [&](std::size_t n) { return total ? total(n) : n; };
+  auto sum = [&](std::size_t n) { return hooks.total ? hooks.total(n) : n; };
   std::size_t active = sum(count_active());
   int steps = 0;
   while (steps < p_.max_steps && active > 0) {
-    if (exchange) exchange(*this);
+    if (hooks.exchange) hooks.exchange(*this);
     active = sum(step());
     ++steps;
+    if (hooks.after_step) hooks.after_step(steps, active);
   }
   return steps;
 }

@@ -46,11 +46,17 @@ class Percolation {
   void set_active(int x, int y, int z);
   /// One synchronous update; returns the number of active sites after it (in this slab).
   std::size_t step();
-  /// Steps until no site is active (or max_steps); returns the number of steps taken. A slab
-  /// passes `exchange`, which fills its halo rows (set_halo) before each step, and `total`,
-  /// the sum of a count over all slabs; every slab calls both in the same order.
-  int run(const std::function<void(Percolation&)>& exchange = {},
-          const std::function<std::size_t(std::size_t)>& total = {});
+  /// What run() calls besides stepping. A slab needs `exchange`, which fills its halo rows
+  /// (set_halo) before each step, and `total`, the sum of a count over all slabs (every slab
+  /// calls both in the same order); `after_step` (optional) gets the step number (from 1) and
+  /// the active sites of the whole grid after it, e.g. for progress.
+  struct RunHooks {
+    std::function<void(Percolation&)> exchange;
+    std::function<std::size_t(std::size_t)> total;
+    std::function<void(int, std::size_t)> after_step;
+  };
+  /// Steps until no site is active (or max_steps); returns the number of steps taken.
+  int run(const RunHooks& hooks = {});
   /// Cloud fraction per coarse cell: the mean of cld over each K^3 block (a slab: its coarse
   /// rows, [z][y - y_begin][x]).
   std::vector<float> coarse_density() const;

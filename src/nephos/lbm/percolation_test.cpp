@@ -228,9 +228,9 @@ TEST(Percolation, SlabsStepExactlyAsTheWholeGrid) {
 }
 
 TEST(Percolation, OneSlabRunsThroughTheExchangeAndTotalHooks) {
-  // run() with the hooks an MPI driver passes, on a single slab whose neighbour on both sides
-  // is itself (one rank): the same steps and clouds as the whole grid; without the hooks a
-  // slab refuses to run (its halo rows would stay empty).
+  // run() with the hooks an MPI driver passes (and a progress hook), on a single slab whose
+  // neighbour on both sides is itself (one rank): the same steps and clouds as the whole grid;
+  // without the hooks a slab refuses to run (its halo rows would stay empty).
   const Grid3 g{8, 6, 6};
   std::vector<float> vapour(g.cells(), 1.0f);
   PercolationParams p;
@@ -241,18 +241,25 @@ TEST(Percolation, OneSlabRunsThroughTheExchangeAndTotalHooks) {
   Percolation slab(g, vapour, p, 5, 0, g.ny);
   EXPECT_THROW(slab.run(), ValueError);
   int exchanges = 0, totals = 0;
-  const int slab_steps = slab.run(
-      [&](Percolation& s) {
-        using Side = Percolation::Side;
-        const auto low = s.edge_rows(Side::below), high = s.edge_rows(Side::above);
-        s.set_halo(Side::below, high);
-        s.set_halo(Side::above, low);
-        ++exchanges;
-      },
-      [&](std::size_t n) { return ++totals, n; });
+  int after = 0;
+  Percolation::RunHooks hooks;
+  hooks.exchange = [&](Percolation& s) {
+    using Side = Percolation::Side;
+    const auto low = s.edge_rows(Side::below), high = s.edge_rows(Side::above);
+    s.set_halo(Side::below, high);
+    s.set_halo(Side::above, low);
+    ++exchanges;
+  };
+  hooks.total = [&](std::size_t n) { return ++totals, n; };
+  hooks.after_step = [&](int step, std::size_t active) {
+    EXPECT_EQ(step, ++after);
+    EXPECT_EQ(active == 0, step == steps);  // activity ends at the last step
+  };
+  const int slab_steps = slab.run(hooks);
   EXPECT_EQ(slab_steps, steps);
   EXPECT_EQ(exchanges, steps);
   EXPECT_EQ(totals, steps + 1);  // the initial count, then one per step
+  EXPECT_EQ(after, steps);
   EXPECT_EQ(slab.coarse_density(), whole.coarse_density());
 }
 
