@@ -3,6 +3,7 @@
 #include <mpi.h>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdlib>
@@ -13,6 +14,7 @@
 #include <type_traits>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/progress.hpp"
 
 namespace nephos::app {
 
@@ -177,8 +179,10 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
   };
   const auto t0 = std::chrono::steady_clock::now();
   const long first = model.steps_done();
+  Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
   while (model.steps_done() < o.iterations) {
     model.step();
+    progress.advance();
     if (model.steps_done() % 10 == 0) check();
     if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0)
       checkpoint(o.out_dir / "checkpoint.bin");

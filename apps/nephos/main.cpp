@@ -367,6 +367,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   double t_water = 0;
   if (app::mpi_launched()) {
     ensure_directory(out);  // on every rank: a failure must stop all of them, not leave them waiting
+    if (app::mpi_rank() != 0) Progress::set_enabled(false);  // one progress line per stage, rank 0's
     auto r = app::run_water_mpi(o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::Grid3{}, params, g.seed,
                                 {o.iterations, o.checkpoint_every, o.resume, out});
     grid = r.grid;
