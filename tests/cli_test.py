@@ -662,6 +662,10 @@ class Particles(unittest.TestCase):
                                               d / "r"), "--weather-time")
             Info.assert_input_error(self, run("-q", "masks", "--synthetic", "--weather-time", "2011-01-15T18:00:00Z",
                                               "--out", d / "s"), "--weather-time")
+            # So do the Sun's --time errors.
+            Info.assert_input_error(self, run("-q", "render", "--time", "noon", "--out", d / "r"), "--time", "noon")
+            Info.assert_input_error(self, run("-q", "fly", "--code", "d100", "--time", "2024-13-01T10:00Z", "--out",
+                                              d / "r"), "--time")
             self.assertFalse((d / "m0").exists() or (d / "r").exists() or (d / "s").exists())
             # The same time twice is refused with both sources named.
             r = run("particles", "--weather", SAMPLE, "--weather", SAMPLE, "--frames", "1", "--out", d / "dup")

@@ -258,7 +258,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
 
   const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
-  const UtcTime time = o.time.empty() ? w.metadata().valid_time : UtcTime::parse(o.time);
+  const UtcTime time = o.time.empty() ? w.metadata().valid_time : parse_time(o.time, "--time");
   const earth::SunPosition sun = earth::sun_position(time);
   spdlog::info("sensor: {}", sensor.description);
   spdlog::info("time {}: subsolar point {:.2f}, {:.2f}", time.iso(), sun.subsolar_lat_deg, sun.subsolar_lon_deg);
@@ -614,7 +614,7 @@ int run_view_command(const FlyOptions& o, const std::string& screenshot, const G
   app::ViewOptions v;
   std::tie(v.width, v.height) = parse_size(o.size);
   std::tie(v.lat_deg, v.lon_deg) = checked_flight(o);
-  const UtcTime time = UtcTime::parse(o.time);
+  const UtcTime time = parse_time(o.time, "--time");
   if (o.frames < 0) throw ValueError("must be >= 0 (0: until the window is closed)", {.key = "--frames"});
   v.time = time;
   v.api = realtime::gl_api_from_name(o.gl);
@@ -633,7 +633,7 @@ int run_view_command(const FlyOptions& o, const std::string& screenshot, const G
 int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const auto [width, height] = parse_size(o.size);
   const auto [lat, lon] = checked_flight(o);
-  const UtcTime time = UtcTime::parse(o.time);
+  const UtcTime time = parse_time(o.time, "--time");
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   std::optional<std::pair<realtime::CloudRecipe, double>> change;
   bool changed = false;
