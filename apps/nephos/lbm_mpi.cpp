@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/progress.hpp"
@@ -84,6 +85,33 @@ auto on_all_ranks(F&& f) {
   if constexpr (!std::is_void_v<R>) return std::move(*result);
 }
 
+// The halo swap of slabs on a ring of ranks: sends `to_above` to rank + 1 and `to_below` to
+// rank - 1 (wrapping around), and returns what arrives from below and from above. Both
+// directions carry the same number of values.
+template <class T>
+MPI_Datatype mpi_type();
+template <>
+MPI_Datatype mpi_type<float>() {
+  return MPI_FLOAT;
+}
+template <>
+MPI_Datatype mpi_type<std::uint64_t>() {
+  return MPI_UINT64_T;
+}
+template <class T>
+std::pair<std::vector<T>, std::vector<T>> swap_with_neighbours(const std::vector<T>& to_above,
+                                                               const std::vector<T>& to_below) {
+  const int rank = mpi_rank(), size = mpi_size();
+  const int up = (rank + 1) % size, down = (rank + size - 1) % size;
+  std::vector<T> from_below(to_above.size()), from_above(to_below.size());
+  const int n = static_cast<int>(to_above.size());
+  MPI_Sendrecv(to_above.data(), n, mpi_type<T>(), up, 1, from_below.data(), n, mpi_type<T>(), down, 1, MPI_COMM_WORLD,
+               MPI_STATUS_IGNORE);
+  MPI_Sendrecv(to_below.data(), n, mpi_type<T>(), down, 2, from_above.data(), n, mpi_type<T>(), up, 2, MPI_COMM_WORLD,
+               MPI_STATUS_IGNORE);
+  return {std::move(from_below), std::move(from_above)};
+}
+
 }  // namespace
 
 int slab_begin(int ny, int r, int size) { return static_cast<int>(static_cast<long>(ny) * r / size); }
@@ -129,15 +157,9 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
     m.initialise(lbm::make_silos(grid, params, seed), seed);
     return m;
   });
-  const int up = (rank + 1) % size, down = (rank + size - 1) % size;
   model.set_exchange([&](lbm::WaterModel& m, lbm::WaterModel::Exchange kind) {
-    const auto low = m.pack_row(kind, m.owned_begin()), high = m.pack_row(kind, m.owned_end() - 1);
-    std::vector<float> from_below(high.size()), from_above(low.size());
-    const int n = static_cast<int>(low.size());
-    MPI_Sendrecv(high.data(), n, MPI_FLOAT, up, 1, from_below.data(), n, MPI_FLOAT, down, 1, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
-    MPI_Sendrecv(low.data(), n, MPI_FLOAT, down, 2, from_above.data(), n, MPI_FLOAT, up, 2, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
+    const auto [from_below, from_above] =
+        swap_with_neighbours(m.pack_row(kind, m.owned_end() - 1), m.pack_row(kind, m.owned_begin()));
     m.unpack_row(kind, 0, from_below);
     m.unpack_row(kind, m.local_ny() - 1, from_above);
   });
@@ -205,18 +227,11 @@ PercolationMpiResult run_percolation_mpi(const lbm::Grid3& grid, const std::vect
   const int rank = mpi_rank(), size = mpi_size();
   const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
   lbm::Percolation perc = on_all_ranks([&] { return lbm::Percolation(grid, local_vapour, params, seed, y0, y1); });
-  const int up = (rank + 1) % size, down = (rank + size - 1) % size;  // periodic in y
   PercolationMpiResult result;
   lbm::Percolation::RunHooks hooks;
-  hooks.exchange = [&](lbm::Percolation& p) {
+  hooks.exchange = [](lbm::Percolation& p) {  // periodic in y: the ring wraps
     using Side = lbm::Percolation::Side;
-    const auto low = p.edge_rows(Side::below), high = p.edge_rows(Side::above);
-    std::vector<std::uint64_t> from_below(high.size()), from_above(low.size());
-    const int n = static_cast<int>(low.size());
-    MPI_Sendrecv(high.data(), n, MPI_UINT64_T, up, 3, from_below.data(), n, MPI_UINT64_T, down, 3, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
-    MPI_Sendrecv(low.data(), n, MPI_UINT64_T, down, 4, from_above.data(), n, MPI_UINT64_T, up, 4, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
+    const auto [from_below, from_above] = swap_with_neighbours(p.edge_rows(Side::above), p.edge_rows(Side::below));
     p.set_halo(Side::below, from_below);
     p.set_halo(Side::above, from_above);
   };
@@ -237,7 +252,6 @@ LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<flo
   const int rank = mpi_rank(), size = mpi_size();
   const int y0 = slab_begin(grid.ny, rank, size), y1 = slab_begin(grid.ny, rank + 1, size);
   lbm::LightingSolver solver = on_all_ranks([&] { return lbm::LightingSolver(grid, local_density, params, y0, y1); });
-  const int up = (rank + 1) % size, down = (rank + size - 1) % size;
   // Every rank's row planes, gathered in rank (= y) order for the whole grid's balance.
   std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
   for (int r = 0; r < size; ++r) {
@@ -248,13 +262,7 @@ LightingMpiResult run_lighting_mpi(const lbm::Grid3& grid, const std::vector<flo
   LightingMpiResult result;
   result.steps = solver.solve([&](lbm::LightingSolver& s) {
     using Side = lbm::LightingSolver::Side;
-    const auto down_going = s.leaving(Side::below), up_going = s.leaving(Side::above);
-    std::vector<float> from_below(up_going.size()), from_above(down_going.size());
-    const int n = static_cast<int>(up_going.size());
-    MPI_Sendrecv(up_going.data(), n, MPI_FLOAT, up, 5, from_below.data(), n, MPI_FLOAT, down, 5, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
-    MPI_Sendrecv(down_going.data(), n, MPI_FLOAT, down, 6, from_above.data(), n, MPI_FLOAT, up, 6, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
+    const auto [from_below, from_above] = swap_with_neighbours(s.leaving(Side::above), s.leaving(Side::below));
     s.set_arrivals(Side::below, from_below);
     s.set_arrivals(Side::above, from_above);
     MPI_Allgatherv(s.plane_balance().data()->data(), 3 * static_cast<int>(s.plane_balance().size()), MPI_DOUBLE,
