@@ -8,12 +8,12 @@
 #include <chrono>
 #include <cstdlib>
 #include <exception>
-#include <limits>
 #include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/progress.hpp"
 
@@ -163,23 +163,25 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
     m.unpack_row(kind, 0, from_below);
     m.unpack_row(kind, m.local_ny() - 1, from_above);
   });
-  // Checkpoints: every rank's owned populations gathered on rank 0, written as one file.
-  const long row_values = 2L * 19 * grid.nz * grid.nx;
-  if (row_values * grid.ny > std::numeric_limits<int>::max())
-    throw ValueError(fmt::format("lattice {} too large for gathered MPI checkpoints", grid.describe()),
-                     {.key = "--checkpoint-every"});
+  // Checkpoints: one file whatever the process count, written in place by every rank (its own
+  // rows) into the temporary that rank 0 created at full size, which rank 0 then renames: no
+  // rank holds the whole lattice. Each on_all_ranks is also a barrier.
   auto checkpoint = [&](const std::filesystem::path& path) {
-    const std::vector<float> mine = model.pack_owned();
-    std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
-    for (int r = 0; r < size; ++r) {
-      counts[static_cast<std::size_t>(r)] = static_cast<int>((begin(r + 1) - begin(r)) * row_values);
-      displs[static_cast<std::size_t>(r)] = static_cast<int>(begin(r) * row_values);
-    }
-    std::vector<float> rows(rank == 0 ? static_cast<std::size_t>(row_values * grid.ny) : 0);
-    MPI_Gatherv(mine.data(), static_cast<int>(mine.size()), MPI_FLOAT, rows.data(), counts.data(), displs.data(),
-                MPI_FLOAT, 0, MPI_COMM_WORLD);
+    std::optional<AtomicFile> file;  // rank 0's: removes the temporary unless committed
+    std::string temp;
     on_all_ranks([&] {
-      if (rank == 0) lbm::WaterModel::save_gathered(path, grid, params, model.steps_done(), rows);
+      if (rank != 0) return;
+      file.emplace(path);
+      lbm::WaterModel::create_checkpoint(file->temp_path(), grid, params, model.steps_done());
+      temp = file->temp_path().string();
+    });
+    int length = static_cast<int>(temp.size());
+    MPI_Bcast(&length, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    temp.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(temp.data(), length, MPI_CHAR, 0, MPI_COMM_WORLD);
+    on_all_ranks([&] { model.write_owned(temp); });
+    on_all_ranks([&] {
+      if (rank == 0) file->commit();
     });
   };
   // The first rank that finds a bad density describes it (global cell coordinates); every

@@ -752,17 +752,24 @@ struct CheckpointHeader {
 };
 
 // direction(c, i, out) fills out[cell] with population i of component c, for every cell.
+void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
+  os.write(magic, sizeof magic);
+  const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
+  os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
+  const auto params = params_to_array(h.params);
+  os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
+}
+// Bytes before the populations; population i of component c at cell `cell` follows at
+// ((c q + i) cells + cell) floats.
+constexpr std::size_t checkpoint_header_bytes = sizeof magic + 4 * sizeof(std::int64_t) + param_count * sizeof(double);
+
 void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h,
                       const std::function<void(int, int, float*)>& direction) {
   AtomicFile out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
     if (!os) throw IoError("cannot open checkpoint for writing", {.file = path.string()});
-    os.write(magic, sizeof magic);
-    const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
-    os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
-    const auto params = params_to_array(h.params);
-    os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
+    write_checkpoint_header(os, h);
     std::vector<float> values(h.grid.cells());
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i) {
@@ -830,21 +837,25 @@ Grid3 WaterModel::checkpoint_grid(const std::filesystem::path& path) {
 WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin, int y_end) {
   std::ifstream is(path, std::ios::binary);
   const CheckpointHeader h = read_checkpoint_header(is, path);
+  const std::streamoff populations = is.tellg();  // CK2 headers are one parameter shorter
   WaterModel w(h.grid, h.params, y_begin, y_end);
   w.step_ = h.step;
-  // Read one direction of one component at a time (a whole-lattice plane of populations) and
-  // keep the slab's rows: memory stays at one plane beyond the slab.
+  // Read only the slab's rows: per (component, direction, z) one run of own x nx values
+  // (cell = (z ny + y) nx + x), as write_owned() writes them. Neither memory nor reading grows
+  // with the whole lattice.
   const std::size_t N = h.grid.cells(), stride = w.g_.direction_stride();
-  std::vector<float> plane(N);
+  const std::size_t run = static_cast<std::size_t>(y_end - y_begin) * static_cast<std::size_t>(h.grid.nx);
+  std::vector<float> values(run);
   for (int c = 0; c < 2; ++c)
-    for (int i = 0; i < d3q19::q; ++i) {
-      is.read(reinterpret_cast<char*>(plane.data()), static_cast<std::streamsize>(N * sizeof(float)));
-      if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
-      for (int z = 0; z < h.grid.nz; ++z)
-        for (int y = w.owned_begin(); y < w.owned_end(); ++y)
-          w.f_[c].write(static_cast<std::size_t>(i) * stride + w.g_.index(0, y, z), static_cast<std::size_t>(h.grid.nx),
-                        plane.data() + h.grid.index(0, w.global_y(y), z));
-    }
+    for (int i = 0; i < d3q19::q; ++i)
+      for (int z = 0; z < h.grid.nz; ++z) {
+        const std::size_t first =
+            (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * N + h.grid.index(0, y_begin, z);
+        is.seekg(populations + static_cast<std::streamoff>(first * sizeof(float)));
+        is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
+        if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+        w.f_[c].write(static_cast<std::size_t>(i) * stride + w.g_.index(0, w.owned_begin(), z), run, values.data());
+      }
   return w;
 }
 
@@ -857,22 +868,37 @@ std::vector<float> WaterModel::pack_owned() const {
   return out;
 }
 
-void WaterModel::save_gathered(const std::filesystem::path& path, const Grid3& global, const WaterModelParams& params,
-                               long step, const std::vector<float>& rows) {
-  // rows: pack_row(populations) of every global row in y order: per row, c, i, z, then x.
-  const std::size_t row = 2 * d3q19::q * static_cast<std::size_t>(global.nz) * global.nx;
-  if (rows.size() != row * static_cast<std::size_t>(global.ny))
-    throw ValueError(fmt::format("gathered checkpoint has {} values, expected {}", rows.size(), row * global.ny));
-  // Population i of component c, cell (x, y, z), sits in row y's block at ((c * q + i) * nz + z) * nx + x.
-  write_checkpoint(path, {global, step, params}, [&](int c, int i, float* out) {
-    for (int y = 0; y < global.ny; ++y)
-      for (int z = 0; z < global.nz; ++z)
-        std::copy_n(rows.data() + static_cast<std::size_t>(y) * row +
-                        ((static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * global.nz +
-                         static_cast<std::size_t>(z)) *
-                            global.nx,
-                    global.nx, out + global.index(0, y, z));
-  });
+void WaterModel::create_checkpoint(const std::filesystem::path& file, const Grid3& global,
+                                   const WaterModelParams& params, long step) {
+  {
+    std::ofstream os(file, std::ios::binary | std::ios::trunc);
+    if (!os) throw IoError("cannot open checkpoint for writing", {.file = file.string()});
+    write_checkpoint_header(os, {global, step, params});
+    if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
+  }
+  std::error_code ec;
+  std::filesystem::resize_file(file, checkpoint_header_bytes + 2 * d3q19::q * global.cells() * sizeof(float), ec);
+  if (ec) throw IoError("cannot size the checkpoint: " + ec.message(), {.file = file.string()});
+}
+
+void WaterModel::write_owned(const std::filesystem::path& file) const {
+  // Each (component, direction, z) holds this slab's rows as one run of own x nx values in the
+  // whole lattice's order (cell = (z ny + y) nx + x): 2 q nz positioned writes.
+  std::fstream os(file, std::ios::binary | std::ios::in | std::ios::out);  // no truncation
+  if (!os) throw IoError("cannot open checkpoint for writing", {.file = file.string()});
+  const std::size_t N = global_.cells(), stride = g_.direction_stride();
+  const std::size_t run = static_cast<std::size_t>(owned_end() - owned_begin()) * static_cast<std::size_t>(g_.nx);
+  std::vector<float> values(run);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i)
+      for (int z = 0; z < g_.nz; ++z) {
+        f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, owned_begin(), z), run, values.data());
+        const std::size_t first = (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * N +
+                                  global_.index(0, global_y(owned_begin()), z);
+        os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + first * sizeof(float)));
+        os.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
+      }
+  if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
 }
 
 }  // namespace nephos::lbm

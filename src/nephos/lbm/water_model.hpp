@@ -113,13 +113,16 @@ class WaterModel {
   static Grid3 checkpoint_grid(const std::filesystem::path& path);
   /// The slab rows y_begin <= y < y_end of a checkpoint (see the slab constructor).
   static WaterModel load_slab(const std::filesystem::path& path, int y_begin, int y_end);
-  /// The populations of the owned rows, pack_row(populations) of each in y order: what a slab
-  /// contributes to a checkpoint.
+  /// The populations of the owned rows, pack_row(populations) of each in y order.
   std::vector<float> pack_owned() const;
-  /// Writes the checkpoint of the whole lattice from the pack_owned() of every slab,
-  /// concatenated in y order.
-  static void save_gathered(const std::filesystem::path& path, const Grid3& global, const WaterModelParams& params,
-                            long step, const std::vector<float>& rows);
+  /// Checkpoints written by the slabs themselves, so that no process holds the whole lattice:
+  /// create_checkpoint() writes the header of the whole lattice's checkpoint into `file` and
+  /// gives the file its full size (one process); then each slab's write_owned(file) writes its
+  /// rows in place (any order, any processes; disjoint byte ranges). The result is the file
+  /// save() writes for the whole lattice, byte for byte. IoError naming the file on failure.
+  static void create_checkpoint(const std::filesystem::path& file, const Grid3& global, const WaterModelParams& params,
+                                long step);
+  void write_owned(const std::filesystem::path& file) const;
 
  private:
   std::vector<float> density(int component) const;
