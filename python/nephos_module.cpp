@@ -1,0 +1,280 @@
+// The nephos Python module: weather, cloud masks and the global fractal cloud renderer as
+// numpy arrays, for scene simulation and machine-learning data (docs/python.md). A thin layer
+// over the C++ library: the same code, the same results as the command line, bit for bit.
+// nephos errors become Python exceptions here, the only place besides main() that catches them.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "nephos/clouds/cloud_model.hpp"
+#include "nephos/core/config.hpp"
+#include "nephos/core/error.hpp"
+#include "nephos/core/log.hpp"
+#include "nephos/core/parse.hpp"
+#include "nephos/core/parallel.hpp"
+#include "nephos/core/time.hpp"
+#include "nephos/earth/sun.hpp"
+#include "nephos/noise/fractal_texture.hpp"
+#include "nephos/optics/optics.hpp"
+#include "nephos/render/renderer.hpp"
+#include "nephos/render/sensor.hpp"
+#include "nephos/weather/masks.hpp"
+#include "nephos/weather/reader.hpp"
+#include "nephos/weather/synthetic.hpp"
+
+namespace py = pybind11;
+using namespace nephos;
+
+namespace {
+
+// A copy of `values` as a numpy array of `shape` (row-major), owned by Python.
+template <class T>
+py::array_t<T> to_array(const std::vector<T>& values, std::vector<py::ssize_t> shape) {
+  py::array_t<T> a(shape);
+  std::copy(values.begin(), values.end(), a.mutable_data());
+  return a;
+}
+
+// The CLI's configuration file sections for the cloud model and the masks; unknown keys are
+// errors, as on the command line.
+struct ModelConfig {
+  clouds::CloudModelParams cloud;
+  weather::MaskParams masks;
+};
+ModelConfig read_config(const std::optional<std::string>& path) {
+  ModelConfig c;
+  if (!path) return c;
+  const ParamDict dict = ParamDict::from_file(*path);
+  c.cloud = clouds::CloudModelParams::from(dict);
+  c.masks = weather::MaskParams::from(dict);
+  dict.check_unused();
+  return c;
+}
+
+class Weather {
+ public:
+  explicit Weather(weather::WeatherGrid w) : w_(std::move(w)) {}
+  const weather::WeatherGrid& grid() const { return w_; }
+
+  py::dict masks(const std::optional<std::string>& config) const {
+    const ModelConfig c = read_config(config);
+    weather::WeatherMasks m;
+    {
+      py::gil_scoped_release release;
+      m = weather::compute_masks(w_, c.masks);
+    }
+    py::dict out;
+    const auto shape = std::vector<py::ssize_t>{w_.grid().nlat, w_.grid().nlon};
+    for (int t = 0; t < weather::cloud_type_count; ++t) {
+      const auto type = static_cast<weather::CloudType>(t);
+      out[py::str(std::string(weather::name(type)))] = to_array(m[type], shape);
+    }
+    return out;
+  }
+  py::array_t<double> latitudes() const {
+    std::vector<double> v(static_cast<std::size_t>(w_.grid().nlat));
+    for (int j = 0; j < w_.grid().nlat; ++j) v[static_cast<std::size_t>(j)] = w_.grid().lat(j);
+    return to_array(v, {w_.grid().nlat});
+  }
+  py::array_t<double> longitudes() const {
+    std::vector<double> v(static_cast<std::size_t>(w_.grid().nlon));
+    for (int i = 0; i < w_.grid().nlon; ++i) v[static_cast<std::size_t>(i)] = w_.grid().lon(i);
+    return to_array(v, {w_.grid().nlon});
+  }
+
+ private:
+  weather::WeatherGrid w_;
+};
+
+class Scene {
+ public:
+  Scene(const Weather& w, const std::optional<std::vector<std::string>>& types, int texture, std::uint64_t seed,
+        const std::optional<std::string>& config, std::optional<double> displace_hours)
+      : weather_(w.grid()), seed_(seed) {
+    const ModelConfig c = read_config(config);
+    params_ = c.cloud;
+    if (texture != 0) params_.texture_size = texture;
+    const int tex = params_.texture_size;
+    using clouds::CloudModelParams;
+    if (tex < CloudModelParams::min_texture_size || tex > CloudModelParams::max_texture_size || (tex & (tex - 1)) != 0)
+      throw ValueError(fmt::format("texture size must be a power of two from {} to {}, got {}",
+                                   CloudModelParams::min_texture_size, CloudModelParams::max_texture_size, tex),
+                       {.key = "texture"});
+    // As the command line: three textures in overlapping bricks, and one's float values while baked.
+    require_memory(3.0 * static_cast<double>(noise::Texture3D::bytes_for(tex)) + 4.0 * std::pow(tex, 3), "texture",
+                   fmt::format("three {}^3 fractal textures", tex));
+    if (displace_hours) {
+      if (!(*displace_hours >= 0 && *displace_hours <= CloudModelParams::max_displace_hours))
+        throw ValueError(fmt::format("the wind displacement must be 0..{} h", CloudModelParams::max_displace_hours),
+                         {.key = "displace_hours"});
+      for (auto& t : params_.types)
+        for (auto& f : t.fractals) f.displace_hours = *displace_hours;
+    }
+    std::vector<weather::CloudType> kinds;
+    if (types) {
+      for (const auto& t : *types) kinds.push_back(weather::cloud_type_from_name(t));
+    } else {
+      for (int t = 0; t < weather::cloud_type_count; ++t) kinds.push_back(static_cast<weather::CloudType>(t));
+    }
+    for (auto t : kinds) type_names_.emplace_back(weather::name(t));
+    py::gil_scoped_release release;
+    const weather::WeatherMasks masks = weather::compute_masks(weather_, c.masks);
+    scene_ = clouds::build_scene(weather_, masks, params_, kinds, seed);
+  }
+
+  void advance(double hours) {
+    if (!(std::abs(hours) <= clouds::CloudModelParams::max_displace_hours))
+      throw ValueError(fmt::format("the advance must be within +-{} h", clouds::CloudModelParams::max_displace_hours),
+                       {.key = "hours"});
+    py::gil_scoped_release release;
+    clouds::advance_scene(scene_, hours, params_);
+  }
+
+  py::dict render(const std::string& sensor_spec, std::pair<int, int> size, const std::vector<std::string>& bands,
+                  int steps, const std::optional<std::string>& time, int samples, bool sample_grid) const {
+    const auto [width, height] = size;
+    if (width < 1 || height < 1 || width > 20000 || height > 20000)
+      throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height),
+                       {.key = "size"});
+    if (steps < 1 || steps > 10000) throw ValueError("must be 1..10000", {.key = "steps"});
+    render::RenderParams rp;
+    rp.steps = steps;
+    rp.bands = bands;
+    for (const auto& b : rp.bands) optics::band(b);  // ValueError naming an unknown band
+    rp.samples_per_axis = static_cast<int>(std::lround(std::sqrt(std::max(samples, 0))));
+    if (samples < 1 || samples > 256 || rp.samples_per_axis * rp.samples_per_axis != samples)
+      throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", samples),
+                       {.key = "samples"});
+    rp.stratified_samples = !sample_grid;
+    rp.sample_seed = seed_;
+    const render::Sensor sensor = render::parse_sensor(sensor_spec, width, height);
+    const UtcTime t = time ? UtcTime::parse(*time) : weather_.metadata().valid_time;
+    const earth::SunPosition sun = earth::sun_position(t);
+    render::RenderImage img;
+    {
+      py::gil_scoped_release release;
+      img = render::render(scene_, sensor, sun, rp, &weather_);
+    }
+    const std::vector<py::ssize_t> shape{height, width};
+    py::dict out;
+    for (std::size_t b = 0; b < img.bands.size(); ++b) {
+      out[py::str("radiance_" + img.bands[b])] = to_array(img.radiance[b], shape);
+      if (!img.brightness_temperature[b].empty())
+        out[py::str("brightness_temperature_" + img.bands[b])] = to_array(img.brightness_temperature[b], shape);
+    }
+    out["cloud_top_altitude"] = to_array(img.cloud_top_altitude_m, shape);
+    out["cloud_optical_depth"] = to_array(img.cloud_optical_depth, shape);
+    out["cloud_type"] = to_array(img.cloud_type, shape);
+    out["cloud_fraction"] = to_array(img.cloud_fraction, shape);
+    out["latitude"] = to_array(img.latitude_deg, shape);
+    out["longitude"] = to_array(img.longitude_deg, shape);
+    py::dict seconds;
+    for (const auto& [name, s] : img.seconds_per_type) seconds[py::str(name)] = s;
+    out["seconds_per_type"] = seconds;
+    out["sensor"] = sensor.description;
+    out["time"] = t.iso();
+    return out;
+  }
+
+  const std::vector<std::string>& types() const { return type_names_; }
+
+ private:
+  weather::WeatherGrid weather_;  // the scene's displacement and the renderer's surface temperatures
+  clouds::CloudModelParams params_;
+  clouds::CloudScene scene_;
+  std::uint64_t seed_;
+  std::vector<std::string> type_names_;
+};
+
+}  // namespace
+
+PYBIND11_MODULE(nephos, m) {
+  m.doc() = "nephos: real weather data to 3D clouds (weather, cloud masks, the global fractal cloud renderer)";
+  init_logging(Verbosity::quiet);  // a library in a Python process: no log lines unless asked
+
+  // nephos's typed exceptions as Python's: bad values and configuration as ValueError, files
+  // as OSError, the rest as RuntimeError; the message names the file, field or key.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const IoError& e) {
+      PyErr_SetString(PyExc_OSError, e.what());
+    } catch (const ValueError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const ConfigError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const FormatError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(PyExc_RuntimeError, e.what());
+    }
+  });
+
+  m.def(
+      "set_threads", [](int n) { set_threads(n); }, py::arg("threads"),
+      "Threads for the parallel loops (0: all cores). Results do not depend on it.");
+  m.def(
+      "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
+      "Log lines (and warnings) on stderr, as the command line prints them.");
+
+  py::class_<Weather>(m, "Weather", "Pressure-level weather on a latitude-longitude grid (GRIB1/GRIB2).")
+      .def(py::init([](const std::string& path, const std::optional<std::string>& valid_time) {
+             py::gil_scoped_release release;
+             return valid_time ? Weather(weather::open_weather(path, UtcTime::parse(*valid_time)))
+                               : Weather(weather::open_weather(path));
+           }),
+           py::arg("path"), py::arg("valid_time") = py::none(),
+           "Reads a GRIB file; of a file with several valid times the first, or `valid_time` (ISO 8601).")
+      .def_static(
+          "synthetic",
+          [](std::uint64_t seed) {
+            weather::SyntheticWeatherParams p;
+            p.seed = seed;
+            return Weather(weather::make_synthetic_weather(p));
+          },
+          py::arg("seed") = 1, "A synthetic, physically consistent atmosphere (deterministic from the seed).")
+      .def_property_readonly("valid_time", [](const Weather& w) { return w.grid().metadata().valid_time.iso(); })
+      .def_property_readonly("reference_time",
+                             [](const Weather& w) { return w.grid().metadata().reference_time.iso(); })
+      .def_property_readonly("source", [](const Weather& w) { return w.grid().metadata().source; })
+      .def_property_readonly(
+          "shape", [](const Weather& w) { return std::make_pair(w.grid().grid().nlat, w.grid().grid().nlon); })
+      .def_property_readonly("latitudes", &Weather::latitudes, "Row latitudes [deg], south to north.")
+      .def_property_readonly("longitudes", &Weather::longitudes, "Column longitudes [deg east].")
+      .def("masks", &Weather::masks, py::arg("config") = py::none(),
+           "The four cloud masks (Table 1) as {type: array (nlat, nlon)} of values in [0, 1]; `config` a TOML file "
+           "as for `nephos masks --config`.")
+      .def("__repr__", [](const Weather& w) {
+        return fmt::format("<nephos.Weather {} valid {}>", w.grid().grid().describe(),
+                           w.grid().metadata().valid_time.iso());
+      });
+
+  py::class_<Scene>(m, "Scene",
+                    "Clouds of one or more types over the whole Earth from a Weather: fractal textures, weather masks "
+                    "and wind displacement, built once and rendered from any sensor.")
+      .def(py::init<const Weather&, const std::optional<std::vector<std::string>>&, int, std::uint64_t,
+                    const std::optional<std::string>&, std::optional<double>>(),
+           py::arg("weather"), py::arg("types") = py::none(), py::arg("texture") = 0, py::arg("seed") = 1,
+           py::arg("config") = py::none(), py::arg("displace_hours") = py::none(),
+           "types: cloud type names (default all four); texture: fractal texture edge in voxels (0: the "
+           "configuration's, 256 by default); config: a TOML file as for `nephos render --config`; "
+           "displace_hours: the wind displacement of every fractal [h].")
+      .def_property_readonly("types", &Scene::types)
+      .def("advance", &Scene::advance, py::arg("hours"),
+           "Moves the clouds with the wind by `hours` (frame-to-frame propagation).")
+      .def("render", &Scene::render, py::arg("sensor") = "geo:-75.2", py::arg("size") = std::make_pair(1000, 1000),
+           py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
+           py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
+           "Renders the scene as `nephos render` does: a dict of (height, width) arrays radiance_<band> "
+           "[W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, cloud_top_altitude [m], "
+           "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
+           "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "
+           "file; time: ISO 8601 UTC (default: the weather's valid time).");
+}
