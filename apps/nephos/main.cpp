@@ -348,12 +348,12 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     // What the stages hold at once, per cell [B] (docs/lbm.md): the water model's populations
     // and fields (one process), the percolation's five bits per refined site, the lighting's
     // two copies of 19 directions plus coefficients, and the output fields. Under MPI the
-    // ranks share the percolation and the lighting (slabs), and rank 0 gathers the fields.
+    // ranks share the three stages (slabs), and rank 0 gathers the fields.
     const lbm::Grid3 lattice =
         o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
     const bool mpi = app::mpi_launched();
     const double share = mpi ? 1.0 / app::mpi_size() : 1.0;
-    const double water = mpi ? 0.0 : params.storage == lbm::Storage::fp16 ? 180 : 316;
+    const double water = (params.storage == lbm::Storage::fp16 ? 180 : 316) * share;
     const double percolation = (5.0 * std::pow(o.percolation, 3) / 8 + 8) * share, lighting = (2 * 19 * 4 + 8) * share,
                  fields = 5 * 4;
     require_memory(static_cast<double>(lattice.cells()) * (std::max({water, percolation, lighting}) + fields), "--grid",
