@@ -102,6 +102,19 @@ class Render(unittest.TestCase):
         self.assertNotIn("brightness_temperature_nir", a)  # a solar band
         leo = scene.render(sensor="leo:0,-75,700,10", size=(32, 32), bands=["nir"])
         self.assertEqual(leo["radiance_nir"].shape, (32, 32))
+        # Two Python threads rendering the scene at once (the GIL is released): the same arrays.
+        import threading
+        out = {}
+        views = {"geo": dict(size=(64, 64), bands=["nir"]),
+                 "leo": dict(sensor="leo:0,-75,700,10", size=(32, 32), bands=["nir"])}
+        threads = [threading.Thread(target=lambda k=k, v=v: out.__setitem__(k, scene.render(**v))) for k, v in
+                   views.items()]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertTrue(np.array_equal(out["geo"]["radiance_nir"], a["radiance_nir"]))
+        self.assertTrue(np.array_equal(out["leo"]["radiance_nir"], leo["radiance_nir"]))
         # The Earth's disc from GEO: space (NaN latitude) in the corners, the sub-satellite
         # point in the middle.
         self.assertTrue(np.isnan(a["latitude"][0, 0]))
