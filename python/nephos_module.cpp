@@ -1,5 +1,6 @@
-// The nephos Python module: weather, cloud masks and the global fractal cloud renderer as
-// numpy arrays, for scene simulation and machine-learning data (docs/python.md). A thin layer
+// The nephos Python module: weather, cloud masks, the global fractal cloud renderer and the
+// lattice-Boltzmann cloud stages as numpy arrays, for scene simulation, machine-learning data
+// and parameter studies (docs/python.md). A thin layer
 // over the C++ library: the same code, the same results as the command line, bit for bit.
 // nephos errors become Python exceptions here, the only place besides main() that catches them.
 #include <pybind11/numpy.h>
@@ -17,10 +18,14 @@
 #include "nephos/core/config.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/log.hpp"
-#include "nephos/core/parse.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/core/parse.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
+#include "nephos/lbm/lighting.hpp"
+#include "nephos/lbm/percolation.hpp"
+#include "nephos/lbm/raycast.hpp"
+#include "nephos/lbm/water_model.hpp"
 #include "nephos/noise/fractal_texture.hpp"
 #include "nephos/optics/optics.hpp"
 #include "nephos/render/renderer.hpp"
@@ -193,6 +198,143 @@ class Scene {
   std::vector<std::string> type_names_;
 };
 
+// ---- Lattice-Boltzmann clouds: fields as (nz, ny, nx) float32 arrays, [z][y][x] as in lbm.nc.
+
+lbm::Grid3 grid_of(const py::array_t<float, py::array::c_style | py::array::forcecast>& a, const char* what) {
+  if (a.ndim() != 3)
+    throw ValueError(fmt::format("expected a 3D array (nz, ny, nx), got {} dimensions", a.ndim()), {.key = what});
+  return {static_cast<int>(a.shape(2)), static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0))};
+}
+std::vector<float> values_of(const py::array_t<float, py::array::c_style | py::array::forcecast>& a) {
+  return {a.data(), a.data() + a.size()};
+}
+py::array_t<float> field_array(const std::vector<float>& v, const lbm::Grid3& g) {
+  return to_array(v, {g.nz, g.ny, g.nx});
+}
+std::pair<double, double> checked_sun(std::pair<double, double> sun) {
+  if (!(std::isfinite(sun.first) && sun.second > 0 && sun.second <= 90))
+    throw ValueError(fmt::format("expected (azimuth, elevation) with a finite azimuth and an elevation in (0, 90] deg, "
+                                 "got ({:g}, {:g})",
+                                 sun.first, sun.second),
+                     {.key = "sun"});
+  return sun;
+}
+
+class WaterModel {
+ public:
+  WaterModel(std::tuple<int, int, int> grid, std::uint64_t seed, std::optional<int> silos,
+             const std::optional<std::string>& config, const std::optional<std::string>& storage)
+      : model_(make(grid, seed, silos, config, storage)) {}
+  explicit WaterModel(lbm::WaterModel m) : model_(std::move(m)) {}
+
+  // As `nephos lbm`: the densities checked every 10 steps and at the end; a NaN or a density
+  // out of bounds stops with NumericError naming the step and the cell.
+  void step(long n) {
+    if (n < 0) throw ValueError("must be >= 0", {.key = "n"});
+    py::gil_scoped_release release;
+    for (long k = 0; k < n; ++k) {
+      model_.step();
+      if (model_.steps_done() % 10 == 0 || k == n - 1) check();
+    }
+  }
+  long steps_done() const { return model_.steps_done(); }
+  py::array_t<float> vapour() const { return field_array(model_.vapour(), model_.grid()); }
+  py::array_t<float> temperature() const { return field_array(model_.temperature(), model_.grid()); }
+  void save(const std::string& path) const {
+    py::gil_scoped_release release;
+    model_.save(path);
+  }
+  std::tuple<int, int, int> shape() const { return {model_.grid().nz, model_.grid().ny, model_.grid().nx}; }
+
+ private:
+  static lbm::WaterModel make(std::tuple<int, int, int> grid, std::uint64_t seed, std::optional<int> silos,
+                              const std::optional<std::string>& config, const std::optional<std::string>& storage) {
+    const auto [nx, ny, nz] = grid;
+    const lbm::Grid3 g = lbm::Grid3::parse(fmt::format("{}x{}x{}", nx, ny, nz));  // its checks and messages
+    lbm::WaterModelParams p;
+    if (config) {
+      const ParamDict dict = ParamDict::from_file(*config);
+      p = lbm::WaterModelParams::from(dict);
+      dict.check_unused();
+    }
+    if (silos) {
+      if (*silos < 0 || *silos > lbm::max_silos)
+        throw ValueError(fmt::format("must be 0..{}, got {}", lbm::max_silos, *silos), {.key = "silos"});
+      p.silos = *silos;
+    }
+    if (storage) p.storage = lbm::parse_storage(*storage);
+    require_memory(static_cast<double>(g.cells()) * (p.storage == lbm::Storage::fp16 ? 180 : 316), "grid",
+                   fmt::format("the {} water model", g.describe()));
+    lbm::WaterModel m(g, p);
+    m.initialise(lbm::make_silos(g, p, seed), seed);
+    return m;
+  }
+  void check() const {
+    std::string what;
+    std::size_t cell = 0;
+    if (model_.check(what, cell)) return;
+    const auto nx = static_cast<std::size_t>(model_.grid().nx), ny = static_cast<std::size_t>(model_.grid().ny);
+    throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={})", model_.steps_done(), what, cell % nx,
+                                   cell / nx % ny, cell / (nx * ny)));
+  }
+  lbm::WaterModel model_;
+};
+
+py::tuple percolate(const py::array_t<float, py::array::c_style | py::array::forcecast>& vapour, int refinement,
+                    std::uint64_t seed, double rho10) {
+  const lbm::Grid3 g = grid_of(vapour, "vapour");
+  lbm::PercolationParams pp;
+  pp.refinement = refinement;
+  pp.rho10 = rho10;
+  std::vector<float> v = values_of(vapour), density;
+  int steps = 0;
+  {
+    py::gil_scoped_release release;
+    lbm::Percolation perc(g, v, pp, seed);
+    steps = perc.run();
+    density = perc.coarse_density();
+  }
+  return py::make_tuple(field_array(density, g), steps);
+}
+
+py::tuple light(const py::array_t<float, py::array::c_style | py::array::forcecast>& density,
+                std::pair<double, double> sun) {
+  const lbm::Grid3 g = grid_of(density, "density");
+  lbm::LightingParams lp;
+  std::tie(lp.sun_azimuth_deg, lp.sun_elevation_deg) = checked_sun(sun);
+  std::vector<float> d = values_of(density), field;
+  int steps = 0;
+  double residual = 0;
+  {
+    py::gil_scoped_release release;
+    lbm::LightingSolver solver(g, std::move(d), lp);
+    steps = solver.solve();
+    residual = solver.residual();
+    field = solver.light();
+  }
+  return py::make_tuple(field_array(field, g), steps, residual);
+}
+
+py::array_t<std::uint8_t> raycast(const py::array_t<float, py::array::c_style | py::array::forcecast>& density,
+                                  const py::array_t<float, py::array::c_style | py::array::forcecast>& light,
+                                  std::pair<int, int> size, std::pair<double, double> sun) {
+  const lbm::Grid3 g = grid_of(density, "density");
+  if (!(grid_of(light, "light") == g)) throw ValueError("light and density differ in shape", {.key = "light"});
+  const auto [width, height] = size;
+  if (width < 1 || height < 1 || width > 20000 || height > 20000)
+    throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height), {.key = "size"});
+  lbm::RaycastParams rp;
+  rp.width = width, rp.height = height;
+  std::tie(rp.sun_azimuth_deg, rp.sun_elevation_deg) = checked_sun(sun);
+  const std::vector<float> d = values_of(density), l = values_of(light);
+  std::vector<std::uint8_t> rgb;
+  {
+    py::gil_scoped_release release;
+    rgb = lbm::raycast(g, d, l, rp);
+  }
+  return to_array(rgb, {height, width, 3});
+}
+
 }  // namespace
 
 PYBIND11_MODULE(nephos, m) {
@@ -277,4 +419,35 @@ PYBIND11_MODULE(nephos, m) {
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "
            "file; time: ISO 8601 UTC (default: the weather's valid time).");
+
+  py::class_<WaterModel>(m, "WaterModel",
+                         "The two-component lattice-Boltzmann water model (vapour and temperature) of `nephos lbm`.")
+      .def(py::init<std::tuple<int, int, int>, std::uint64_t, std::optional<int>, const std::optional<std::string>&,
+                    const std::optional<std::string>&>(),
+           py::arg("grid") = std::make_tuple(128, 128, 128), py::arg("seed") = 1, py::arg("silos") = py::none(),
+           py::arg("config") = py::none(), py::arg("storage") = py::none(),
+           "grid: (nx, ny, nz) cells; seed: of the silos and the initial state; silos: vapour silos (default the "
+           "configuration's, 4); config: a TOML file with a [water] table as for `nephos lbm --config`; storage: "
+           "'fp32' or 'fp16'.")
+      .def_static(
+          "load", [](const std::string& path) { return WaterModel(lbm::WaterModel::load(path)); }, py::arg("path"),
+          "A model from a checkpoint of `nephos lbm --checkpoint-every` or save().")
+      .def("step", &WaterModel::step, py::arg("n") = 1,
+           "Advances n steps (densities checked every 10 steps: RuntimeError on a NaN or a density out of bounds).")
+      .def_property_readonly("steps_done", &WaterModel::steps_done)
+      .def_property_readonly("shape", &WaterModel::shape, "(nz, ny, nx) of the fields")
+      .def("vapour", &WaterModel::vapour, "Vapour density, (nz, ny, nx) float32 [lattice units].")
+      .def("temperature", &WaterModel::temperature, "Temperature, (nz, ny, nx) float32 [lattice units].")
+      .def("save", &WaterModel::save, py::arg("path"), "A checkpoint, as --checkpoint-every writes it.");
+  m.def("percolate", &percolate, py::arg("vapour"), py::arg("refinement") = 5, py::arg("seed") = 1,
+        py::arg("rho10") = 1.0,
+        "Nagel-Raschke percolation of a vapour field on the grid refined K times: (cloud fraction (nz, ny, nx), "
+        "steps).");
+  m.def("light", &light, py::arg("density"), py::arg("sun") = std::make_pair(135.0, 45.0),
+        "Lattice-Boltzmann lighting of a cloud density in [0, 1] to its steady state: (photon density (nz, ny, nx), "
+        "steps, photon-balance residual). sun: (azimuth from +x towards +y, elevation) [deg].");
+  m.def("raycast", &raycast, py::arg("density"), py::arg("light"), py::arg("size") = std::make_pair(640, 480),
+        py::arg("sun") = std::make_pair(135.0, 45.0),
+        "The lit density ray-cast from the default side view over a ground with its shadow: (height, width, 3) "
+        "uint8 RGB.");
 }

@@ -135,6 +135,96 @@ class Render(unittest.TestCase):
             scene.advance(1e6)
 
 
+def read_png_rgb8(path):
+    """An 8-bit RGB, non-interlaced PNG (what nephos writes) as an (h, w, 3) uint8 array."""
+    import struct
+    import zlib
+    data = Path(path).read_bytes()
+    pos, idat, width, height = 8, b"", 0, 0
+    while pos < len(data):
+        length, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + length]
+        if kind == b"IHDR":
+            width, height, depth, colour, _, _, interlace = struct.unpack(">IIBBBBB", body)
+            assert (depth, colour, interlace) == (8, 2, 0)
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + length
+    raw, stride = zlib.decompress(idat), width * 3
+    out = np.zeros((height, stride), dtype=np.int32)
+    for y in range(height):
+        f, line = raw[y * (stride + 1)], np.frombuffer(raw, np.uint8, stride, y * (stride + 1) + 1).astype(np.int32)
+        up = out[y - 1] if y else np.zeros(stride, np.int32)
+        if f in (0, 2):
+            out[y] = (line + (up if f == 2 else 0)) & 255
+        else:  # sub, average, Paeth: each byte depends on the one 3 to its left
+            row = out[y]
+            for x in range(stride):
+                a = row[x - 3] if x >= 3 else 0
+                c = up[x - 3] if x >= 3 else 0
+                if f == 1:
+                    pred = a
+                elif f == 3:
+                    pred = (a + up[x]) // 2
+                else:
+                    p = a + up[x] - c
+                    pa, pb, pc = abs(p - a), abs(p - up[x]), abs(p - c)
+                    pred = a if pa <= pb and pa <= pc else up[x] if pb <= pc else c
+                row[x] = (line[x] + pred) & 255
+    return out.astype(np.uint8).reshape(height, width, 3)
+
+
+class Lbm(unittest.TestCase):
+    def test_the_stages_equal_nephos_lbm_bit_for_bit(self):
+        # The pipeline of `nephos lbm` composed in Python: water model, percolation, lighting and
+        # ray casting give lbm.nc's fields and render.png's pixels, value for value, and the
+        # same step counts.
+        model = nephos.WaterModel(grid=(24, 20, 16), seed=5)
+        self.assertEqual(model.shape, (16, 20, 24))
+        model.step(12)
+        self.assertEqual(model.steps_done, 12)
+        vapour = model.vapour()
+        density, perc_steps = nephos.percolate(vapour, refinement=5, seed=5)
+        light, light_steps, residual = nephos.light(density)
+        image = nephos.raycast(density, light, size=(64, 48))
+        self.assertEqual(image.shape, (48, 64, 3))
+        self.assertLess(residual, 1e-5)
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run([NEPHOS, "-q", "--seed", "5", "lbm", "--grid", "24x20x16", "--iterations", "12", "--size",
+                                "64x48", "--out", d], capture_output=True, text=True, timeout=300)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn(f"percolation K=5: {perc_steps} steps", r.stdout)
+            self.assertIn(f"lighting: {light_steps} steps", r.stdout)
+            ref = netcdf(Path(d) / "lbm.nc")
+            for name, a in (("vapour_density", vapour), ("temperature", model.temperature()),
+                            ("percolated_density", density), ("light", light)):
+                self.assertTrue(np.array_equal(a, ref[name][:]), name)
+            self.assertTrue(np.array_equal(image, read_png_rgb8(Path(d) / "render.png")))
+            # A checkpoint saved from Python (the format --resume reads) loads back.
+            model.save(str(Path(d) / "ck.bin"))
+            resumed = nephos.WaterModel.load(str(Path(d) / "ck.bin"))
+            self.assertTrue(np.array_equal(resumed.vapour(), vapour))
+
+    def test_lbm_errors_name_the_keyword(self):
+        with self.assertRaisesRegex(ValueError, "NXxNYxNZ|4..4096"):
+            nephos.WaterModel(grid=(2, 20, 16))
+        with self.assertRaisesRegex(ValueError, "silos"):
+            nephos.WaterModel(grid=(8, 8, 8), silos=-1)
+        with self.assertRaisesRegex(ValueError, "fp16"):
+            nephos.WaterModel(grid=(8, 8, 8), storage="fp8")
+        with self.assertRaisesRegex(ValueError, "sun"):
+            nephos.light(np.zeros((8, 8, 8), np.float32), sun=(135, -5))
+        with self.assertRaisesRegex(ValueError, "3D"):
+            nephos.percolate(np.zeros((8, 8), np.float32))
+        with self.assertRaisesRegex(ValueError, "shape"):
+            nephos.raycast(np.zeros((8, 8, 8), np.float32), np.zeros((8, 8, 4), np.float32))
+        with tempfile.TemporaryDirectory() as d:
+            (Path(d) / "bad.toml").write_text("[water]\nbuoyancy = 1000.0\n")
+            unstable = nephos.WaterModel(grid=(24, 20, 16), config=str(Path(d) / "bad.toml"))
+            with self.assertRaisesRegex(RuntimeError, r"step 10: .* at cell \(x=\d+, y=\d+, z=\d+\)"):
+                unstable.step(30)
+
+
 if __name__ == "__main__":
     NEPHOS = sys.argv.pop(1)
     unittest.main(verbosity=2)
