@@ -26,7 +26,6 @@
 #include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
-#include "nephos/noise/fractal_texture.hpp"
 #include "nephos/optics/optics.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
@@ -105,23 +104,8 @@ class Scene {
       : weather_(w.grid()), seed_(seed) {
     const ModelConfig c = read_config(config);
     params_ = c.cloud;
-    if (texture != 0) params_.texture_size = texture;
-    const int tex = params_.texture_size;
-    using clouds::CloudModelParams;
-    if (tex < CloudModelParams::min_texture_size || tex > CloudModelParams::max_texture_size || (tex & (tex - 1)) != 0)
-      throw ValueError(fmt::format("texture size must be a power of two from {} to {}, got {}",
-                                   CloudModelParams::min_texture_size, CloudModelParams::max_texture_size, tex),
-                       {.key = "texture"});
-    // As the command line: three textures in overlapping bricks, and one's float values while baked.
-    require_memory(3.0 * static_cast<double>(noise::Texture3D::bytes_for(tex)) + 4.0 * std::pow(tex, 3), "texture",
-                   fmt::format("three {}^3 fractal textures", tex));
-    if (displace_hours) {
-      if (!(*displace_hours >= 0 && *displace_hours <= CloudModelParams::max_displace_hours))
-        throw ValueError(fmt::format("the wind displacement must be 0..{} h", CloudModelParams::max_displace_hours),
-                         {.key = "displace_hours"});
-      for (auto& t : params_.types)
-        for (auto& f : t.fractals) f.displace_hours = *displace_hours;
-    }
+    params_.set_texture_size(texture != 0 ? texture : params_.texture_size, "texture");
+    if (displace_hours) params_.set_displace_hours(*displace_hours, "displace_hours");
     std::vector<weather::CloudType> kinds;
     if (types) {
       for (const auto& t : *types) kinds.push_back(weather::cloud_type_from_name(t));

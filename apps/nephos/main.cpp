@@ -228,11 +228,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   require_range(o.advance_hours, -clouds::CloudModelParams::max_displace_hours,
                 clouds::CloudModelParams::max_displace_hours, "--advance-hours", "the advance per frame [h]");
   std::optional<double> displace_hours;
-  if (!o.displace_hours.empty()) {
-    displace_hours = parse_numbers(o.displace_hours, 1, "--displace-hours", "hours")[0];
-    require_range(*displace_hours, 0, clouds::CloudModelParams::max_displace_hours, "--displace-hours",
-                  "the wind displacement [h]");
-  }
+  if (!o.displace_hours.empty()) displace_hours = parse_numbers(o.displace_hours, 1, "--displace-hours", "hours")[0];
   clouds::CloudModelParams cp;
   weather::MaskParams mp;
   if (!o.config.empty()) {
@@ -241,20 +237,9 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
     mp = weather::MaskParams::from(dict);
     dict.check_unused();
   }
-  if (o.texture != 0) cp.texture_size = o.texture;
-  // The textures: three N^3 voxel grids of one byte each, in overlapping bricks (~2.37 N^3
-  // bytes each), and while one is baked its N^3 float values.
+  cp.set_texture_size(o.texture != 0 ? o.texture : cp.texture_size, "--texture");
   const int tex = cp.texture_size;
-  using clouds::CloudModelParams;
-  if (tex < CloudModelParams::min_texture_size || tex > CloudModelParams::max_texture_size || (tex & (tex - 1)) != 0)
-    throw ValueError(fmt::format("texture size must be a power of two from {} to {}, got {}",
-                                 CloudModelParams::min_texture_size, CloudModelParams::max_texture_size, tex),
-                     {.key = "--texture"});
-  require_memory(3.0 * static_cast<double>(noise::Texture3D::bytes_for(tex)) + 4.0 * std::pow(tex, 3), "--texture",
-                 fmt::format("three {}^3 fractal textures", tex));
-  if (displace_hours)
-    for (auto& t : cp.types)
-      for (auto& f : t.fractals) f.displace_hours = *displace_hours;
+  if (displace_hours) cp.set_displace_hours(*displace_hours, "--displace-hours");
   const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
 
   const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);

@@ -9,6 +9,7 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
+#include "nephos/core/parse.hpp"
 
 namespace nephos::clouds {
 
@@ -50,6 +51,24 @@ CloudModelParams::CloudModelParams() {
   ci.fractals = {{{0.50, 120e3, 12}, {0.30, 10e3, 12}, {0.20, 60e3, 12}}};
   ci.altitude_length_bottom_m = 600, ci.altitude_length_top_m = 600;
   ci.phase = Phase::ice, ci.water_content_g_m3 = 0.01, ci.effective_radius_um = 45;  // D 90 um, 0.01 g/m3
+}
+
+void CloudModelParams::set_texture_size(int n, const std::string& key) {
+  if (n < min_texture_size || n > max_texture_size || (n & (n - 1)) != 0)
+    throw ValueError(
+        fmt::format("texture size must be a power of two from {} to {}, got {}", min_texture_size, max_texture_size, n),
+        {.key = key});
+  // Three N^3 voxel grids of one byte each in overlapping bricks (~2.37 N^3 bytes each), and
+  // while one is baked its N^3 float values.
+  require_memory(3.0 * static_cast<double>(noise::Texture3D::bytes_for(n)) + 4.0 * std::pow(n, 3), key,
+                 fmt::format("three {}^3 fractal textures", n));
+  texture_size = n;
+}
+
+void CloudModelParams::set_displace_hours(double hours, const std::string& key) {
+  require_range(hours, 0, max_displace_hours, key, "the wind displacement [h]");
+  for (auto& t : types)
+    for (auto& f : t.fractals) f.displace_hours = hours;
 }
 
 CloudModelParams CloudModelParams::from(const ParamDict& dict) {

@@ -83,6 +83,11 @@ struct CloudModelParams {
   CloudModelParams();  ///< defaults: docs/render.md
   /// Reads [textures], [displacement] and [clouds.<type>] (unknown keys: error on check_unused()).
   static CloudModelParams from(const ParamDict& dict);
+  /// Sets texture_size after checking it (a power of two, min..max_texture_size) and that the
+  /// three textures fit in this machine's memory; ValueError / ResourceError naming `key`.
+  void set_texture_size(int n, const std::string& key);
+  /// Sets every fractal's wind displacement [h] (0..max_displace_hours); ValueError naming `key`.
+  void set_displace_hours(double hours, const std::string& key);
   const CloudTypeParams& operator[](CloudType t) const { return types[static_cast<std::size_t>(t)]; }
   CloudTypeParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
 };
