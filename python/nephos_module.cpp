@@ -1,8 +1,8 @@
 // The nephos Python module: weather, cloud masks, the global fractal cloud renderer and the
 // lattice-Boltzmann cloud stages as numpy arrays, for scene simulation, machine-learning data
-// and parameter studies (docs/python.md). A thin layer
-// over the C++ library: the same code, the same results as the command line, bit for bit.
-// nephos errors become Python exceptions here, the only place besides main() that catches them.
+// and parameter studies (docs/python.md). A thin layer over the C++ library: the same code and
+// the same results as the command line, bit for bit. nephos errors become Python exceptions
+// here, the only place besides main() that catches them.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
