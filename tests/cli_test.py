@@ -274,6 +274,16 @@ class Lbm(unittest.TestCase):
             self.assertEqual((d / "a" / "clouds.vdb").read_bytes()[:4], b" BDV")  # OpenVDB magic 0x56444220
             r = run("lbm", "--grid", "16x16x16", "--iterations", "6", "--checkpoint-every", "6", "--size", "64x48", "--out", d / "b")
             self.assertEqual(r.returncode, 0, r.stderr)
+            # nephos info describes a checkpoint: what it holds and whether it is whole.
+            r = run("info", d / "b" / "checkpoint.bin")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            for line in ("nephos lbm checkpoint, format CK3", "lattice        16x16x16 (4096 cells)",
+                         "step           6", "storage        fp32", "populations    complete (622792 bytes)"):
+                self.assertIn(line, r.stdout)
+            self.assertRegex(r.stdout, r"\n    buoyancy +=  ?0\.01\n")
+            (d / "cut.bin").write_bytes((d / "b" / "checkpoint.bin").read_bytes()[:100000])
+            r = run("info", d / "cut.bin")
+            self.assertIn("TRUNCATED: 100000 of 622792 bytes", r.stdout)
             r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--size", "64x48", "--out", d / "c")
             self.assertEqual(r.returncode, 0, r.stderr)
             a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")

@@ -820,8 +820,8 @@ int main(int argc, char** argv) {
   app.add_option("--seed", g.seed, "Seed for all randomness (counter-based; results do not depend on threads)");
 
   std::string info_file;
-  auto* info = app.add_subcommand("info", "Describe a weather file in nephos's terms");
-  info->add_option("file", info_file, "GRIB1/GRIB2 file")->required();
+  auto* info = app.add_subcommand("info", "Describe a weather file in nephos's terms, or an lbm checkpoint");
+  info->add_option("file", info_file, "GRIB1/GRIB2 file, or a checkpoint of nephos lbm")->required();
 
   MasksOptions mo;
   auto* masks = app.add_subcommand("masks", "Cloud weather masks (Table 1) as PNGs and CF-NetCDF");
@@ -981,7 +981,8 @@ int main(int argc, char** argv) {
     Progress::set_enabled(!g.quiet);
     set_threads(g.threads);
     if (*info) {
-      std::cout << weather::describe_weather_file(info_file);
+      std::cout << (lbm::WaterModel::is_checkpoint(info_file) ? lbm::WaterModel::describe_checkpoint(info_file)
+                                                              : weather::describe_weather_file(info_file));
       return 0;
     }
     if (*masks) return run_masks(mo, g);

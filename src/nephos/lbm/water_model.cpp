@@ -834,6 +834,52 @@ Grid3 WaterModel::checkpoint_grid(const std::filesystem::path& path) {
   return read_checkpoint_header(is, path).grid;
 }
 
+bool WaterModel::is_checkpoint(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  char m[11] = {};
+  return is.read(m, sizeof m) && std::memcmp(m, "NEPHOS-LBM-", sizeof m) == 0;
+}
+
+std::string WaterModel::describe_checkpoint(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  const std::streamoff populations = is.tellg();
+  const bool ck2 = populations < static_cast<std::streamoff>(checkpoint_header_bytes);
+  const std::uintmax_t expected =
+      static_cast<std::uintmax_t>(populations) + 2 * d3q19::q * h.grid.cells() * sizeof(float);
+  const std::uintmax_t size = std::filesystem::file_size(path);
+  const WaterModelParams& p = h.params;
+  std::string out = fmt::format("{}\n  nephos lbm checkpoint, format {}\n", path.string(), ck2 ? "CK2" : "CK3");
+  out += fmt::format("  lattice        {} ({} cells)\n", h.grid.describe(), h.grid.cells());
+  out += fmt::format("  step           {}\n", h.step);
+  out += fmt::format("  storage        {}\n", p.storage == Storage::fp16 ? "fp16" : "fp32");
+  out +=
+      fmt::format("  populations    {}\n",
+                  size == expected ? fmt::format("complete ({} bytes)", size)
+                                   : fmt::format("TRUNCATED: {} of {} bytes (it cannot be resumed)", size, expected));
+  out += "  [water] parameters:\n";
+  const std::pair<const char*, double> values[] = {{"rho10", p.rho10},
+                                                   {"rho20", p.rho20},
+                                                   {"rest_fraction", p.rest_fraction},
+                                                   {"xi_vapour", p.xi_vapour},
+                                                   {"xi_temperature", p.xi_temperature},
+                                                   {"g12", p.g12},
+                                                   {"g22", p.g22},
+                                                   {"buoyancy", p.buoyancy},
+                                                   {"buoyancy_reference", p.buoyancy_reference},
+                                                   {"temperature_bottom", p.temperature_bottom},
+                                                   {"temperature_top", p.temperature_top},
+                                                   {"silos", static_cast<double>(p.silos)},
+                                                   {"silo_radius_min", p.silo_radius_min},
+                                                   {"silo_radius_max", p.silo_radius_max},
+                                                   {"silo_height_min", p.silo_height_min},
+                                                   {"silo_height_max", p.silo_height_max},
+                                                   {"vapour_background", p.vapour_background}};
+  for (const auto& [key, v] : values) out += fmt::format("    {:<20} = {}\n", key, v);
+  if (p.periodic_z) out += "  (a periodic box without top and bottom layers: a test configuration)\n";
+  return out;
+}
+
 WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin, int y_end) {
   std::ifstream is(path, std::ios::binary);
   const CheckpointHeader h = read_checkpoint_header(is, path);

@@ -111,6 +111,11 @@ class WaterModel {
   static WaterModel load(const std::filesystem::path& path);
   /// The lattice size a checkpoint holds (reads its header only).
   static Grid3 checkpoint_grid(const std::filesystem::path& path);
+  /// Whether `path` starts like a checkpoint (any format version); false if it cannot be read.
+  static bool is_checkpoint(const std::filesystem::path& path);
+  /// `nephos info` of a checkpoint: format, lattice, step, storage, the [water] parameters (as
+  /// TOML keys) and whether the file holds all its populations. Throws like load().
+  static std::string describe_checkpoint(const std::filesystem::path& path);
   /// The slab rows y_begin <= y < y_end of a checkpoint (see the slab constructor).
   static WaterModel load_slab(const std::filesystem::path& path, int y_begin, int y_end);
   /// The populations of the owned rows, pack_row(populations) of each in y order.
