@@ -254,12 +254,7 @@ class WaterModel {
     return m;
   }
   void check() const {
-    std::string what;
-    std::size_t cell = 0;
-    if (model_.check(what, cell)) return;
-    const auto nx = static_cast<std::size_t>(model_.grid().nx), ny = static_cast<std::size_t>(model_.grid().ny);
-    throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={})", model_.steps_done(), what, cell % nx,
-                                   cell / nx % ny, cell / (nx * ny)));
+    if (const auto bad = model_.bad_density()) throw NumericError(*bad);
   }
   lbm::WaterModel model_;
 };

@@ -187,15 +187,8 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
   // The first rank that finds a bad density describes it (global cell coordinates); every
   // rank writes its part of the failure checkpoint and throws the same message.
   auto check = [&] {
-    std::string what, message;
-    std::size_t cell = 0;
-    const bool bad = !model.check(what, cell);
-    if (bad) {
-      const std::size_t nx = static_cast<std::size_t>(grid.nx), own = static_cast<std::size_t>(y1 - y0);
-      message = fmt::format("step {}: {} at cell (x={}, y={}, z={})", model.steps_done(), what, cell % nx,
-                            y0 + static_cast<long>(cell / nx % own), cell / (nx * own));
-    }
-    const auto first = first_failure(bad, message);
+    const auto bad = model.bad_density();
+    const auto first = first_failure(bad.has_value(), bad.value_or(""));
     if (!first) return;
     const auto ck = o.out_dir / "checkpoint_failed.bin";
     checkpoint(ck);

@@ -377,16 +377,11 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     ensure_directory(out);
     grid = model.grid();
     auto check = [&] {
-      std::string what;
-      std::size_t cell = 0;
-      if (model.check(what, cell)) return;
+      const auto bad = model.bad_density();
+      if (!bad) return;
       const auto ck = out / "checkpoint_failed.bin";
       model.save(ck);
-      const auto x = cell % static_cast<std::size_t>(grid.nx),
-                 y = cell / static_cast<std::size_t>(grid.nx) % static_cast<std::size_t>(grid.ny),
-                 z = cell / (static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny));
-      throw NumericError(fmt::format("step {}: {} at cell (x={}, y={}, z={}); state saved to {}", model.steps_done(),
-                                     what, x, y, z, ck.string()));
+      throw NumericError(fmt::format("{}; state saved to {}", *bad, ck.string()));
     };
     const auto t0 = std::chrono::steady_clock::now();
     const long first = model.steps_done();

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <optional>
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
@@ -702,6 +703,16 @@ bool WaterModel::check(std::string& what, std::size_t& cell) const {
   return true;
 }
 
+std::optional<std::string> WaterModel::bad_density() const {
+  std::string what;
+  std::size_t cell = 0;
+  if (check(what, cell)) return std::nullopt;
+  // `cell` indexes the owned rows ([z][y - first owned row][x]); name it in the whole lattice.
+  const auto nx = static_cast<std::size_t>(g_.nx), own = static_cast<std::size_t>(owned_end() - owned_begin());
+  return fmt::format("step {}: {} at cell (x={}, y={}, z={})", steps_done(), what, cell % nx,
+                     global_y(owned_begin() + static_cast<int>(cell / nx % own)), cell / (nx * own));
+}
+
 namespace {
 // CK3: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
 // equal states could give different files); CK3 adds the population storage (CK2 is read as
@@ -751,7 +762,6 @@ struct CheckpointHeader {
   WaterModelParams params;
 };
 
-// direction(c, i, out) fills out[cell] with population i of component c, for every cell.
 void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
   os.write(magic, sizeof magic);
   const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
@@ -762,7 +772,13 @@ void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
 // Bytes before the populations; population i of component c at cell `cell` follows at
 // ((c q + i) cells + cell) floats.
 constexpr std::size_t checkpoint_header_bytes = sizeof magic + 4 * sizeof(std::int64_t) + param_count * sizeof(double);
+// Where population i of component c of global cell `cell` lies among a checkpoint's populations
+// (in floats from their start), for a lattice of `cells` cells.
+std::size_t checkpoint_value_index(int c, int i, std::size_t cells, std::size_t cell) {
+  return (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * cells + cell;
+}
 
+// direction(c, i, out) fills out[cell] with population i of component c, for every cell.
 void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h,
                       const std::function<void(int, int, float*)>& direction) {
   AtomicFile out(path);
@@ -895,8 +911,7 @@ WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin,
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i)
       for (int z = 0; z < h.grid.nz; ++z) {
-        const std::size_t first =
-            (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * N + h.grid.index(0, y_begin, z);
+        const std::size_t first = checkpoint_value_index(c, i, N, h.grid.index(0, y_begin, z));
         is.seekg(populations + static_cast<std::streamoff>(first * sizeof(float)));
         is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
         if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
@@ -939,8 +954,7 @@ void WaterModel::write_owned(const std::filesystem::path& file) const {
     for (int i = 0; i < d3q19::q; ++i)
       for (int z = 0; z < g_.nz; ++z) {
         f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, owned_begin(), z), run, values.data());
-        const std::size_t first = (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * N +
-                                  global_.index(0, global_y(owned_begin()), z);
+        const std::size_t first = checkpoint_value_index(c, i, N, global_.index(0, global_y(owned_begin()), z));
         os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + first * sizeof(float)));
         os.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
       }

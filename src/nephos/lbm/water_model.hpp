@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,9 @@ class WaterModel {
   /// Finds the first NaN or out-of-range density (vapour outside [0, 100 rho10], temperature
   /// outside [0, 10]); returns false and describes it in `what` / `cell`.
   bool check(std::string& what, std::size_t& cell) const;
+  /// check() as the message a run stops with: "step N: <what> at cell (x=, y=, z=)", the cell
+  /// in the whole lattice's coordinates (also for a slab); nothing when every density is fine.
+  std::optional<std::string> bad_density() const;
 
   /// Checkpoint: the full state, bit-exact (atomic write). Resuming gives results identical to
   /// an uninterrupted run. One file format whatever the process count: a run may resume on a
