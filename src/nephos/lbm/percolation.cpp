@@ -37,30 +37,25 @@ void shift_row(const Word* in, Word* out, int w, int len, int s) {
 
 Percolation::Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
                          std::uint64_t seed)
-    : coarse_(coarse), p_(params), seed_(seed) {
-  const int k = p_.refinement;
-  if (k < 1 || k > 16) throw ValueError("refinement K must be 1..16", {.key = "--percolation"});
-  if (vapour.size() != coarse.cells()) throw ValueError("vapour field does not match the grid");
-  fine_ = {coarse.nx * k, coarse.ny * k, coarse.nz * k};
-  y_end_ = coarse.ny;
-  own_ = local_ny_ = fine_.ny;
-  seed_sites(vapour);
-}
+    : Percolation(coarse, vapour, params, seed, 0, coarse.ny, 0) {}
 
 Percolation::Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
                          std::uint64_t seed, int y_begin, int y_end)
-    : coarse_(coarse), p_(params), seed_(seed), y_begin_(y_begin), y_end_(y_end) {
+    : Percolation(coarse, vapour, params, seed, y_begin, y_end, 2) {}  // activation spreads two rows per step
+
+Percolation::Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
+                         std::uint64_t seed, int y_begin, int y_end, int halo)
+    : coarse_(coarse), p_(params), seed_(seed), y_begin_(y_begin), y_end_(y_end), halo_(halo) {
   const int k = p_.refinement;
   if (k < 1 || k > 16) throw ValueError("refinement K must be 1..16", {.key = "--percolation"});
   if (!(y_begin >= 0 && y_begin < y_end && y_end <= coarse.ny))
     throw ValueError(
         fmt::format("percolation slab rows {}..{} outside the grid's 0..{}", y_begin, y_end - 1, coarse.ny - 1));
   const std::size_t own_cells = static_cast<std::size_t>(coarse.nx) * (y_end - y_begin) * coarse.nz;
-  if (vapour.size() != own_cells) throw ValueError("vapour field does not match the percolation slab");
+  if (vapour.size() != own_cells) throw ValueError("vapour field does not match the percolation grid");
   fine_ = {coarse.nx * k, coarse.ny * k, coarse.nz * k};
-  halo_ = 2;  // activation spreads two rows in y per step
   own_ = (y_end - y_begin) * k;
-  if (own_ < halo_) throw ValueError("a percolation slab needs at least two refined rows");
+  if (halo_ > 0 && own_ < halo_) throw ValueError("a percolation slab needs at least two refined rows");
   local_ny_ = own_ + 2 * halo_;
   seed_sites(vapour);
 }

@@ -80,6 +80,9 @@ class Percolation {
   bool is_slab() const { return halo_ > 0; }
 
  private:
+  // The whole grid is the slab of every row without halo rows (halo 0: y wraps instead).
+  Percolation(const Grid3& coarse, const std::vector<float>& vapour, const PercolationParams& params,
+              std::uint64_t seed, int y_begin, int y_end, int halo);
   void seed_sites(const std::vector<float>& vapour);
   std::size_t popcount(const std::vector<std::uint64_t>& v) const;
   bool bit(const std::vector<std::uint64_t>& v, int x, int y, int z) const;  // y: global fine row
