@@ -85,9 +85,6 @@ auto on_all_ranks(F&& f) {
   if constexpr (!std::is_void_v<R>) return std::move(*result);
 }
 
-// The halo swap of slabs on a ring of ranks: sends `to_above` to rank + 1 and `to_below` to
-// rank - 1 (wrapping around), and returns what arrives from below and from above. Both
-// directions carry the same number of values.
 template <class T>
 MPI_Datatype mpi_type();
 template <>
@@ -98,6 +95,9 @@ template <>
 MPI_Datatype mpi_type<std::uint64_t>() {
   return MPI_UINT64_T;
 }
+// The halo swap of slabs on a ring of ranks: sends `to_above` to rank + 1 and `to_below` to
+// rank - 1 (wrapping around), and returns what arrives from below and from above. Both
+// directions carry the same number of values.
 template <class T>
 std::pair<std::vector<T>, std::vector<T>> swap_with_neighbours(const std::vector<T>& to_above,
                                                                const std::vector<T>& to_below) {

@@ -329,6 +329,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   if (!o.storage.empty()) params.storage = lbm::parse_storage(o.storage);
   if (!o.resume.empty() && !o.storage.empty())
     throw ValueError("a resumed run keeps the storage of its checkpoint", {.key = "--storage"});
+  const bool mpi = app::mpi_launched();  // every stage on slabs across the ranks
   {
     // What the stages hold at once, per cell [B] (docs/lbm.md): the water model's populations
     // and fields (one process), the percolation's five bits per refined site, the lighting's
@@ -336,7 +337,6 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     // ranks share the three stages (slabs), and rank 0 gathers the fields.
     const lbm::Grid3 lattice =
         o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
-    const bool mpi = app::mpi_launched();
     const double share = mpi ? 1.0 / app::mpi_size() : 1.0;
     const double water = (params.storage == lbm::Storage::fp16 ? 180 : 316) * share;
     const double percolation = (5.0 * std::pow(o.percolation, 3) / 8 + 8) * share, lighting = (2 * 19 * 4 + 8) * share,
@@ -350,7 +350,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   lbm::Grid3 grid;
   long done = 0, steps_total = 0;
   double t_water = 0;
-  if (app::mpi_launched()) {
+  if (mpi) {
     ensure_directory(out);  // on every rank: a failure must stop all of them, not leave them waiting
     if (app::mpi_rank() != 0) Progress::set_enabled(false);  // one progress line per stage, rank 0's
     auto r = app::run_water_mpi(o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::Grid3{}, params, g.seed,
@@ -403,7 +403,6 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
   }
   // Percolation and lighting: under MPI each rank works on its slab (halo rows exchanged with
   // its neighbours, docs/lbm.md) and rank 0 gathers the fields; otherwise on the whole lattice.
-  const bool mpi = app::mpi_launched();
   std::vector<float> percolated;
   double t_perc = 0;
   int perc_steps = 0;
