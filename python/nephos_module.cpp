@@ -132,15 +132,11 @@ class Scene {
     if (width < 1 || height < 1 || width > 20000 || height > 20000)
       throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height),
                        {.key = "size"});
-    if (steps < 1 || steps > 10000) throw ValueError("must be 1..10000", {.key = "steps"});
     render::RenderParams rp;
-    rp.steps = steps;
+    rp.set_steps(steps, "steps");
     rp.bands = bands;
     for (const auto& b : rp.bands) optics::band(b);  // ValueError naming an unknown band
-    rp.samples_per_axis = static_cast<int>(std::lround(std::sqrt(std::max(samples, 0))));
-    if (samples < 1 || samples > 256 || rp.samples_per_axis * rp.samples_per_axis != samples)
-      throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", samples),
-                       {.key = "samples"});
+    rp.set_rays_per_pixel(samples, "samples");
     rp.stratified_samples = !sample_grid;
     rp.sample_seed = seed_;
     const render::Sensor sensor = render::parse_sensor(sensor_spec, width, height);
@@ -241,11 +237,7 @@ class WaterModel {
       p = lbm::WaterModelParams::from(dict);
       dict.check_unused();
     }
-    if (silos) {
-      if (*silos < 0 || *silos > lbm::max_silos)
-        throw ValueError(fmt::format("must be 0..{}, got {}", lbm::max_silos, *silos), {.key = "silos"});
-      p.silos = *silos;
-    }
+    if (silos) p.set_silos(*silos, "silos");
     if (storage) p.storage = lbm::parse_storage(*storage);
     require_memory(static_cast<double>(g.cells()) * (p.storage == lbm::Storage::fp16 ? 180 : 316), "grid",
                    fmt::format("the {} water model", g.describe()));

@@ -214,14 +214,10 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   std::vector<weather::CloudType> types;
   for (const auto& t : split_distinct(o.types, "--types")) types.push_back(weather::cloud_type_from_name(t));
   render::RenderParams rp;
-  rp.steps = o.steps;
   rp.bands = split_distinct(o.bands, "--bands");
   for (const auto& b : rp.bands) optics::band(b);
-  if (o.steps < 1 || o.steps > 10000) throw ValueError("must be 1..10000", {.key = "--steps"});
-  rp.samples_per_axis = static_cast<int>(std::lround(std::sqrt(std::max(o.samples, 0))));
-  if (o.samples < 1 || o.samples > 256 || rp.samples_per_axis * rp.samples_per_axis != o.samples)
-    throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", o.samples),
-                     {.key = "--samples"});
+  rp.set_steps(o.steps, "--steps");
+  rp.set_rays_per_pixel(o.samples, "--samples");
   rp.stratified_samples = !o.sample_grid;
   rp.sample_seed = g.seed;
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
@@ -321,11 +317,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     params = lbm::WaterModelParams::from(dict);
     dict.check_unused();
   }
-  if (o.silos != LbmOptions::silos_unset) {
-    if (o.silos < 0 || o.silos > lbm::max_silos)
-      throw ValueError(fmt::format("must be 0..{}, got {}", lbm::max_silos, o.silos), {.key = "--silos"});
-    params.silos = o.silos;
-  }
+  if (o.silos != LbmOptions::silos_unset) params.set_silos(o.silos, "--silos");
   if (!o.storage.empty()) params.storage = lbm::parse_storage(o.storage);
   if (!o.resume.empty() && !o.storage.empty())
     throw ValueError("a resumed run keeps the storage of its checkpoint", {.key = "--storage"});

@@ -44,6 +44,11 @@ WaterModelParams WaterModelParams::from(const ParamDict& dict) {
   return p;
 }
 
+void WaterModelParams::set_silos(int n, const std::string& key) {
+  if (n < 0 || n > max_silos) throw ValueError(fmt::format("must be 0..{}, got {}", max_silos, n), {.key = key});
+  silos = n;
+}
+
 std::vector<Silo> make_silos(const Grid3& g, const WaterModelParams& p, std::uint64_t seed) {
   std::vector<Silo> s;
   const double size = std::min(g.nx, g.ny);

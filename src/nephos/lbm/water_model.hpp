@@ -49,6 +49,8 @@ struct WaterModelParams {
   Storage storage = Storage::fp32;
 
   static WaterModelParams from(const ParamDict& dict);
+  /// Sets `silos` (0..max_silos); ValueError naming `key` otherwise.
+  void set_silos(int n, const std::string& key);
 };
 
 struct Silo {

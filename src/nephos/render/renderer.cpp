@@ -580,6 +580,19 @@ void add_brightness_temperatures(RenderImage& img, const BandTables& tables) {
 
 }  // namespace
 
+void RenderParams::set_steps(int n, const std::string& key) {
+  if (n < 1 || n > 10000) throw ValueError("must be 1..10000", {.key = key});
+  steps = n;
+}
+
+void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {
+  const int k = static_cast<int>(std::lround(std::sqrt(std::max(rays, 0))));
+  if (rays < 1 || rays > 256 || k * k != rays)
+    throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", rays),
+                     {.key = key});
+  samples_per_axis = k;
+}
+
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                    const RenderParams& params, const weather::WeatherGrid* weather) {
   const int k = params.samples_per_axis;

@@ -34,6 +34,11 @@ struct RenderParams {
   bool stratified_samples = true;
   std::uint64_t sample_seed = 0;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
+
+  /// Set `steps` (1..10000) and, from a count of rays per pixel that must be a square k^2 of
+  /// 1..256, `samples_per_axis`; ValueError naming `key` otherwise.
+  void set_steps(int n, const std::string& key);
+  void set_rays_per_pixel(int rays, const std::string& key);
 };
 
 /// Per-pixel results, row-major from the top-left pixel.
