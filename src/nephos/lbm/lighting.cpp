@@ -184,14 +184,7 @@ double LightingSolver::total_in_direction(int dir) const {
 
 double LightingSolver::total() const {
   double s = 0;
-  for (int k = 1; k <= light_dirs; ++k) {
-    const std::size_t stride = g_.direction_stride(), nx = static_cast<std::size_t>(g_.nx);
-    for (int z = 0; z < g_.nz; ++z)
-      for (int y = halo_; y < g_.ny - halo_; ++y) {
-        const float* row = i_.data() + static_cast<std::size_t>(k - 1) * stride + g_.index(0, y, z);
-        for (std::size_t x = 0; x < nx; ++x) s += row[x];
-      }
-  }
+  for (int k = 1; k <= light_dirs; ++k) s += total_in_direction(k);
   return s;
 }
 
