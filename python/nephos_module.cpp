@@ -239,7 +239,7 @@ class WaterModel {
     }
     if (silos) p.set_silos(*silos, "silos");
     if (storage) p.storage = lbm::parse_storage(*storage);
-    require_memory(static_cast<double>(g.cells()) * (p.storage == lbm::Storage::fp16 ? 180 : 316), "grid",
+    require_memory(static_cast<double>(g.cells()) * p.bytes_per_cell(), "grid",
                    fmt::format("the {} water model", g.describe()));
     lbm::WaterModel m(g, p);
     m.initialise(lbm::make_silos(g, p, seed), seed);

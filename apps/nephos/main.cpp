@@ -330,7 +330,7 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
     const lbm::Grid3 lattice =
         o.resume.empty() ? lbm::Grid3::parse(o.grid) : lbm::WaterModel::checkpoint_grid(o.resume);
     const double share = mpi ? 1.0 / app::mpi_size() : 1.0;
-    const double water = (params.storage == lbm::Storage::fp16 ? 180 : 316) * share;
+    const double water = params.bytes_per_cell() * share;
     const double percolation = (5.0 * std::pow(o.percolation, 3) / 8 + 8) * share, lighting = (2 * 19 * 4 + 8) * share,
                  fields = 5 * 4;
     require_memory(static_cast<double>(lattice.cells()) * (std::max({water, percolation, lighting}) + fields), "--grid",

@@ -51,6 +51,9 @@ struct WaterModelParams {
   static WaterModelParams from(const ParamDict& dict);
   /// Sets `silos` (0..max_silos); ValueError naming `key` otherwise.
   void set_silos(int n, const std::string& key);
+  /// What the model holds per cell [B] (docs/lbm.md): both components' populations, two copies,
+  /// and the density fields: 316 B in FP32 storage, 180 B in FP16.
+  double bytes_per_cell() const { return storage == Storage::fp16 ? 180 : 316; }
 };
 
 struct Silo {
