@@ -7,6 +7,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -183,10 +184,26 @@ class Scene {
 lbm::Grid3 grid_of(const py::array_t<float, py::array::c_style | py::array::forcecast>& a, const char* what) {
   if (a.ndim() != 3)
     throw ValueError(fmt::format("expected a 3D array (nz, ny, nx), got {} dimensions", a.ndim()), {.key = what});
+  for (int axis = 0; axis < 3; ++axis)
+    if (a.shape(axis) < 1 || a.shape(axis) > 4096)
+      throw ValueError(
+          fmt::format("expected each dimension in 1..4096, got ({}, {}, {})", a.shape(0), a.shape(1), a.shape(2)),
+          {.key = what});
   return {static_cast<int>(a.shape(2)), static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0))};
 }
-std::vector<float> values_of(const py::array_t<float, py::array::c_style | py::array::forcecast>& a) {
-  return {a.data(), a.data() + a.size()};
+// A field from the caller: every value must be a number (a NaN would run through the solvers
+// and come back as NaN light or a black image, far from its cause).
+std::vector<float> values_of(const py::array_t<float, py::array::c_style | py::array::forcecast>& a, const char* what) {
+  std::vector<float> v(a.data(), a.data() + a.size());
+  const auto bad = std::find_if(v.begin(), v.end(), [](float x) { return !std::isfinite(x); });
+  if (bad != v.end()) {
+    const auto i = static_cast<std::size_t>(bad - v.begin());
+    const auto nx = static_cast<std::size_t>(a.shape(2)), ny = static_cast<std::size_t>(a.shape(1));
+    throw ValueError(fmt::format("{:g} at index ({}, {}, {}) (z, y, x); expected finite values", *bad, i / (nx * ny),
+                                 i / nx % ny, i % nx),
+                     {.key = what});
+  }
+  return v;
 }
 py::array_t<float> field_array(const std::vector<float>& v, const lbm::Grid3& g) {
   return to_array(v, {g.nz, g.ny, g.nx});
@@ -257,7 +274,7 @@ py::tuple percolate(const py::array_t<float, py::array::c_style | py::array::for
   lbm::PercolationParams pp;
   pp.refinement = refinement;
   pp.rho10 = rho10;
-  std::vector<float> v = values_of(vapour), density;
+  std::vector<float> v = values_of(vapour, "vapour"), density;
   int steps = 0;
   {
     py::gil_scoped_release release;
@@ -273,7 +290,7 @@ py::tuple light(const py::array_t<float, py::array::c_style | py::array::forceca
   const lbm::Grid3 g = grid_of(density, "density");
   lbm::LightingParams lp;
   std::tie(lp.sun_azimuth_deg, lp.sun_elevation_deg) = checked_sun(sun);
-  std::vector<float> d = values_of(density), field;
+  std::vector<float> d = values_of(density, "density"), field;
   int steps = 0;
   double residual = 0;
   {
@@ -297,7 +314,7 @@ py::array_t<std::uint8_t> raycast(const py::array_t<float, py::array::c_style | 
   lbm::RaycastParams rp;
   rp.width = width, rp.height = height;
   std::tie(rp.sun_azimuth_deg, rp.sun_elevation_deg) = checked_sun(sun);
-  const std::vector<float> d = values_of(density), l = values_of(light);
+  const std::vector<float> d = values_of(density, "density"), l = values_of(light, "light");
   std::vector<std::uint8_t> rgb;
   {
     py::gil_scoped_release release;

@@ -218,6 +218,17 @@ class Lbm(unittest.TestCase):
             nephos.percolate(np.zeros((8, 8), np.float32))
         with self.assertRaisesRegex(ValueError, "shape"):
             nephos.raycast(np.zeros((8, 8, 8), np.float32), np.zeros((8, 8, 4), np.float32))
+        with self.assertRaisesRegex(ValueError, "dimension"):
+            nephos.light(np.zeros((0, 8, 8), np.float32))
+        bad = np.zeros((4, 5, 6), np.float32)
+        bad[2, 3, 4] = np.nan
+        with self.assertRaisesRegex(ValueError, r"'density': nan at index \(2, 3, 4\)"):
+            nephos.light(bad)
+        with self.assertRaisesRegex(ValueError, r"'vapour': nan at index \(2, 3, 4\)"):
+            nephos.percolate(bad)
+        bad[2, 3, 4] = np.inf
+        with self.assertRaisesRegex(ValueError, r"'light': inf at index \(2, 3, 4\)"):
+            nephos.raycast(np.zeros((4, 5, 6), np.float32), bad)
         with tempfile.TemporaryDirectory() as d:
             (Path(d) / "bad.toml").write_text("[water]\nbuoyancy = 1000.0\n")
             unstable = nephos.WaterModel(grid=(24, 20, 16), config=str(Path(d) / "bad.toml"))

@@ -845,6 +845,19 @@ class Usage(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertEqual(run("--threads", "-3", "masks").returncode, 2)
 
+    def test_empty_values_are_errors_not_defaults(self):
+        # An unset shell variable ("--weather $FILE") must not quietly select the default input,
+        # nor --out "" the working directory.
+        with tempfile.TemporaryDirectory() as d:
+            for args in (("render", "--weather", ""), ("render", "--sensor", ""), ("masks", "--config", ""),
+                         ("fly", "--code", ""), ("fly", "--metar", ""), ("lbm", "--resume", ""),
+                         ("particles", "--weather", ""), ("render", "--out", "")):
+                r = run(*args, "--size", "8x8") if args[0] == "render" else run(*args)
+                self.assertEqual(r.returncode, 2, args)
+                self.assertIn(args[1] + ": an empty value is not allowed", r.stderr, args)
+            r = run("render", "--size", "8x8", "--texture", "8", "--out", "", cwd=d)
+            self.assertEqual(os.listdir(d), [])
+
 
 if __name__ == "__main__":
     NEPHOS = sys.argv.pop(1)

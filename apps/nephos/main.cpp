@@ -12,6 +12,7 @@
 #include <limits>
 #include <new>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "fly_bench.hpp"
@@ -785,6 +786,19 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
 }
 }  // namespace
 
+// An empty value (`--weather ""`, often an unset shell variable) is never what a user meant: it
+// would silently pick the option's default, or write into the working directory for --out. Every
+// text option of every subcommand refuses it, except those named in `allowed`, where empty means
+// something (bench fly --plot "": no plot).
+void reject_empty_values(CLI::App& app, const std::set<std::string>& allowed) {
+  const CLI::Validator non_empty(
+      [](std::string& value) { return value.empty() ? std::string("an empty value is not allowed") : std::string(); },
+      "", "non-empty");
+  for (CLI::Option* option : app.get_options())
+    if (option->get_type_name() == "TEXT" && !allowed.count(option->get_name())) option->check(non_empty);
+  for (CLI::App* sub : app.get_subcommands({})) reject_empty_values(*sub, allowed);
+}
+
 int main(int argc, char** argv) {
   // Under mpirun (several ranks) MPI is initialised for `nephos lbm`; plain runs never touch MPI.
   struct MpiSession {
@@ -955,6 +969,7 @@ int main(int argc, char** argv) {
           "three run together)")
       ->capture_default_str();
 
+  reject_empty_values(app, {"--plot"});
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

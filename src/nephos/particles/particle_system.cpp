@@ -1,5 +1,7 @@
 #include "nephos/particles/particle_system.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -33,7 +35,7 @@ double selection_probability(const CloudColumns& columns, std::size_t c, double 
 }
 
 Particles generate(const PlanarGrid& grid, const CloudColumns& columns, const GenerationParams& p) {
-  if (!(p.k > 0)) throw ValueError("K must be > 0, got " + std::to_string(p.k), {.key = "k"});
+  if (!(p.k > 0)) throw ValueError(fmt::format("eq. 5's K must be > 0, got {:g}", p.k), {.key = "--k"});
   if (columns.tau.size() != grid.size()) throw ValueError("columns do not match the grid");
   const double lmax = columns.max_tau();
   if (!(lmax > 0)) throw ValueError("no cloudy column (optical thickness > 0) in the region", {.key = "--region"});

@@ -1,6 +1,7 @@
 #include "nephos/realtime/weather_input.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -92,10 +93,18 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
   std::istringstream in(metar);
   std::string tok;
   bool any = false;
+  std::vector<std::string> unreported;  // groups whose base (or cover) the station did not report
   static const std::regex layer("(FEW|SCT|BKN|OVC)(\\d{3})(CB|TCU|///)?");
+  static const std::regex layer_no_base("(FEW|SCT|BKN|OVC|///)(///)(CB|TCU|///)?");
+  static const std::regex layer_like("(FEW|SCT|BKN|OVC|VV).*");
   static const std::regex vv("VV(\\d{3}|///)");
   while (in >> tok) {
     std::smatch m;
+    // The report's observed part ends here: what follows is a forecast trend (TEMPO, BECMG,
+    // NOSIG, PROBnn, INTER) or remarks (RMK), whose cloud groups do not describe the sky now.
+    if (tok == "TEMPO" || tok == "BECMG" || tok == "NOSIG" || tok == "RMK" || tok == "INTER" || tok == "PROB30" ||
+        tok == "PROB40")
+      break;
     if (tok == "CAVOK" || tok == "SKC" || tok == "CLR" || tok == "NSC" || tok == "NCD") {
       any = true;
       continue;
@@ -106,7 +115,18 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
       r.layers.push_back({SpriteCloudType::low_stratus, 1, 0, std::max(30.0, top), 8});
       continue;
     }
-    if (!std::regex_match(tok, m, layer)) continue;
+    if (std::regex_match(tok, m, layer_no_base)) {  // automatic stations: base above the ceilometer or unknown
+      unreported.push_back(tok);
+      continue;
+    }
+    if (!std::regex_match(tok, m, layer)) {
+      if (std::regex_match(tok, layer_like))
+        throw ValueError("cloud group '" + tok +
+                             "' is malformed: expected FEW|SCT|BKN|OVC and a 3-digit base in hundreds of feet, "
+                             "optionally CB or TCU (e.g. BKN025CB), or VV and 3 digits",
+                         {.key = "--metar"});
+      continue;  // wind, visibility, weather, temperature, pressure groups
+    }
     any = true;
     const std::string cover = m[1];
     const double base_m = std::stoi(m[2]) * 100 * 0.3048;  // hundreds of feet -> metres
@@ -133,9 +153,13 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
       r.layers.push_back({SpriteCloudType::cirrus, cover == "FEW" ? 1 : 2, base_m, base_m + 2000, oktas});
     }
   }
+  std::string skipped;
+  for (const auto& u : unreported) skipped += (skipped.empty() ? "" : " ") + u;
   if (!any)
-    throw ValueError("no cloud group (FEW/SCT/BKN/OVC/VV/CAVOK/SKC/CLR/NSC/NCD) in METAR '" + metar + "'",
+    throw ValueError("no cloud group (FEW/SCT/BKN/OVC/VV/CAVOK/SKC/CLR/NSC/NCD) with a reported base in METAR '" +
+                         metar + "'" + (skipped.empty() ? "" : " (without a base: " + skipped + ")"),
                      {.key = "--metar"});
+  if (!skipped.empty()) spdlog::warn("METAR: cloud groups without a reported base are left out: {}", skipped);
   return r;
 }
 

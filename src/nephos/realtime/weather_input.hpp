@@ -51,8 +51,10 @@ struct CloudRecipe {
 CloudRecipe recipe_from_code(const WeatherCode& code);
 
 /// METAR cloud groups: FEW/SCT/BKN/OVC with base in hundreds of feet and optional CB/TCU,
-/// VVnnn (obscured sky), CAVOK/SKC/CLR/NSC/NCD (no cloud). Other groups are ignored; a report
-/// without any cloud group is an error. Rules: docs/realtime.md.
+/// VVnnn (obscured sky), CAVOK/SKC/CLR/NSC/NCD (no cloud), up to the first trend or remarks
+/// group (TEMPO, BECMG, NOSIG, PROBnn, INTER, RMK). Groups without a reported base (OVC///) are
+/// left out with a warning; other groups are ignored. A malformed cloud group, or a report
+/// without any usable cloud group, is a ValueError. Rules: docs/realtime.md.
 CloudRecipe recipe_from_metar(const std::string& metar);
 
 /// From real weather at the aircraft's position: the four weather masks (cloud fractions) give

@@ -81,6 +81,48 @@ TEST(Metar, CloudGroups) {
   EXPECT_THROW(recipe_from_metar("EGLL 051350Z 24015KT 9999 12/08"), ValueError);
 }
 
+TEST(Metar, TrendAndRemarksAreNotTheSkyNow) {
+  // WMO No. 306 FM 15: a trend (TEMPO, BECMG, NOSIG) and national remarks (RMK) follow the
+  // observed groups; their cloud groups forecast or qualify, so only FEW020 describes the sky.
+  for (const char* tail : {"TEMPO 4000 RA BKN012", "BECMG OVC008", "NOSIG", "RMK BKN V OVC FEW CB DSNT N",
+                           "PROB30 TEMPO SCT015CB", "INTER OVC004"}) {
+    const CloudRecipe r = recipe_from_metar(std::string("EGLL 271020Z 24012KT 9999 FEW020 12/08 Q1012 ") + tail);
+    ASSERT_EQ(r.layers.size(), 1u) << tail;
+    EXPECT_EQ(r.layers[0].type, SpriteCloudType::cumulus) << tail;
+    EXPECT_EQ(r.layers[0].coverage_oktas, 1.5) << tail;
+  }
+  // A report whose only cloud group is in the trend has no cloud group of its own.
+  EXPECT_THROW(recipe_from_metar("EGLL 271020Z 24012KT 9999 12/08 Q1012 TEMPO BKN012"), ValueError);
+}
+
+TEST(Metar, AutomaticStationGroupsWithoutBase) {
+  // Automatic stations write /// for what the sensors cannot tell (base above the ceilometer's
+  // range, or cover and base unknown): those groups are left out, the others kept.
+  const CloudRecipe r = recipe_from_metar("LFPG 271030Z AUTO 24012KT 9999 BKN035 OVC/// //////CB 12/08 Q1012");
+  ASSERT_EQ(r.layers.size(), 1u);
+  EXPECT_EQ(r.layers[0].type, SpriteCloudType::stratocumulus);  // BKN at 3500 ft = 1067 m: low, closed
+  // Nothing with a base: an error that names the groups it could not use.
+  try {
+    recipe_from_metar("LFPG 271030Z AUTO 24012KT 9999 OVC/// 12/08 Q1012");
+    ADD_FAILURE() << "expected a ValueError";
+  } catch (const ValueError& e) {
+    EXPECT_NE(std::string(e.what()).find("OVC///"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Metar, MalformedCloudGroupIsAnError) {
+  // Something that starts like a cloud group but is not one is a typing error, not a group to skip.
+  for (const char* group : {"SCT-10", "BKN", "OVC25", "FEW0200", "BKN025XX", "VV1"}) {
+    try {
+      recipe_from_metar(std::string("EDDM 271020Z 25010KT 9999 FEW040 ") + group);
+      ADD_FAILURE() << group << ": expected a ValueError";
+    } catch (const ValueError& e) {
+      EXPECT_NE(std::string(e.what()).find(group), std::string::npos) << e.what();
+      EXPECT_EQ(e.context().key, "--metar");
+    }
+  }
+}
+
 TEST(GfsRecipe, HandCheckedCellsOfTheEmbeddedSample) {
   // The cells weather/masks_test.cpp checks against GFS's own cloud cover.
   const auto w =

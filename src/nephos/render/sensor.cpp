@@ -78,12 +78,22 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
 }
 
 Sensor parse_sensor(const std::string& spec, int width, int height) {
-  if (spec.rfind("geo:", 0) == 0)
-    return Sensor::geostationary(parse_numbers(spec.substr(4), 1, "--sensor", "geo:LON")[0], width, height);
+  // Longitudes east in either convention, [-180, 180] or GRIB's [0, 360]; beyond, a typing error.
+  auto check_longitude = [](double lon_deg, const char* orbit) {
+    if (!(lon_deg >= -180 && lon_deg <= 360))
+      throw ValueError(fmt::format("{} longitude must be in [-180, 360] deg east, got {:g}", orbit, lon_deg),
+                       {.key = "--sensor"});
+  };
+  if (spec.rfind("geo:", 0) == 0) {
+    const double lon_deg = parse_numbers(spec.substr(4), 1, "--sensor", "geo:LON")[0];
+    check_longitude(lon_deg, "GEO");
+    return Sensor::geostationary(lon_deg, width, height);
+  }
   if (spec.rfind("leo:", 0) == 0) {
     const auto v = parse_numbers(spec.substr(4), 4, "--sensor", "leo:LAT,LON,ALT_KM,FOV_DEG");
     if (!(v[0] >= -90 && v[0] <= 90))
       throw ValueError(fmt::format("LEO latitude must be in [-90, 90] deg, got {:g}", v[0]), {.key = "--sensor"});
+    check_longitude(v[1], "LEO");
     if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "--sensor"});
     return Sensor::nadir(v[0], v[1], v[2] * 1e3, v[3], width, height);
   }

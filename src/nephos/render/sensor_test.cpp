@@ -70,6 +70,14 @@ TEST(Sensor, TomlCameraAndErrors) {
   EXPECT_THROW(parse_sensor("geo:nan", 10, 10), ValueError);
   EXPECT_THROW(parse_sensor("leo:91,0,700,10", 10, 10), ValueError);
   EXPECT_THROW(parse_sensor("leo:1,2,3", 10, 10), ValueError);
+  EXPECT_THROW(parse_sensor("geo:400", 10, 10), ValueError);  // a typing error, not 40 deg E
+  EXPECT_THROW(parse_sensor("leo:10,-200,700,10", 10, 10), ValueError);
+  // GRIB's 0..360 convention is a longitude too: 284.8 deg E is 75.2 deg W.
+  // Tolerance 1 m: the two differ only by the rounding of 360 deg in radians (~1e-15 relative)
+  // at the 42,164 km orbit radius.
+  const Sensor east = parse_sensor("geo:284.8", 10, 10), west = parse_sensor("geo:-75.2", 10, 10);
+  EXPECT_NEAR(east.position.x, west.position.x, 1.0);
+  EXPECT_NEAR(east.position.y, west.position.y, 1.0);
   EXPECT_THROW(parse_sensor("mars:1", 10, 10), ValueError);
 }
 
