@@ -1,4 +1,5 @@
 #include "nephos/core/atomic_file.hpp"
+#include "nephos/core/test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +8,7 @@
 namespace nephos {
 
 TEST(AtomicFile, NothingAppearsWithoutCommit) {
-  const auto dir = std::filesystem::temp_directory_path() / "nephos_atomic_test";
+  const auto dir = test_support::temp_path("atomic_test");
   ensure_directory(dir);
   const auto dest = dir / "out.txt";
   std::filesystem::remove(dest);

@@ -4,11 +4,12 @@
 #include <netcdf.h>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 
 namespace nephos::io {
 
 TEST(NetcdfWriter, WritesReadableVariablesAndAttributes) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_nc_test.nc";
+  const auto path = test_support::temp_path("nc_test.nc");
   {
     NetcdfWriter w(path);
     w.add_dimension("x", 3);
@@ -34,7 +35,7 @@ TEST(NetcdfWriter, WritesReadableVariablesAndAttributes) {
 }
 
 TEST(NetcdfWriter, AbandonedWriterLeavesNoFile) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_nc_abandoned.nc";
+  const auto path = test_support::temp_path("nc_abandoned.nc");
   std::filesystem::remove(path);
   {
     NetcdfWriter w(path);
@@ -42,7 +43,7 @@ TEST(NetcdfWriter, AbandonedWriterLeavesNoFile) {
   }
   EXPECT_FALSE(std::filesystem::exists(path));
   for (const auto& e : std::filesystem::directory_iterator(std::filesystem::temp_directory_path()))
-    EXPECT_EQ(e.path().filename().string().rfind("nephos_nc_abandoned", 0), std::string::npos) << e.path();
+    EXPECT_EQ(e.path().filename().string().rfind(path.filename().string(), 0), std::string::npos) << e.path();
 }
 
 }  // namespace nephos::io

@@ -6,11 +6,12 @@
 #include <fstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 
 using namespace nephos;
 
 TEST(Ply, RoundTripAndHeader) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_points.ply";
+  const auto path = test_support::temp_path("points.ply");
   io::PlyPoints p;
   p.x = {1.5f, -2}, p.y = {0, 3}, p.z = {1000, 2500.25f};
   p.rgba = {10, 20, 30, 255, 200, 201, 202, 7};

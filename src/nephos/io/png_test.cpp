@@ -3,11 +3,12 @@
 #include <gtest/gtest.h>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 
 namespace nephos::io {
 
 TEST(Png, RoundTripsPixelsExactly) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_png_test.png";
+  const auto path = test_support::temp_path("png_test.png");
   std::vector<std::uint8_t> px(7 * 5 * 3);
   for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<std::uint8_t>(i * 37);
   write_png(path, 7, 5, 3, px);
@@ -20,7 +21,7 @@ TEST(Png, RoundTripsPixelsExactly) {
 }
 
 TEST(Png, BadSizeThrowsAndWritesNothing) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_png_bad.png";
+  const auto path = test_support::temp_path("png_bad.png");
   std::filesystem::remove(path);
   EXPECT_THROW(write_png(path, 4, 4, 3, std::vector<std::uint8_t>(5)), ValueError);
   EXPECT_FALSE(std::filesystem::exists(path));

@@ -3,11 +3,12 @@
 #include <gtest/gtest.h>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 
 namespace nephos::io {
 
 TEST(Vdb, RoundTripsASparseDensity) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_vdb_test.vdb";
+  const auto path = test_support::temp_path("vdb_test.vdb");
   const int nx = 10, ny = 8, nz = 6;
   std::vector<float> d(static_cast<std::size_t>(nx) * ny * nz, 0.0f);
   d[(2 * ny + 3) * nx + 4] = 0.75f;  // (4, 3, 2)

@@ -15,6 +15,7 @@
 #include <utility>
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/core/test_support.hpp"
 #include "nephos/lbm/bgk.hpp"
 #include "nephos/lbm/thermal.hpp"
 #include "nephos/lbm/water_model.hpp"
@@ -178,7 +179,7 @@ TEST_P(WaterModelStorage, StableDeterministicAndResumable) {
   set_threads(2);
   WaterModel b = make();
   for (int t = 0; t < 10; ++t) b.step();
-  const auto path = std::filesystem::temp_directory_path() / "nephos_lbm_ck.bin";
+  const auto path = test_support::temp_path("lbm_ck.bin");
   b.save(path);
   WaterModel c = WaterModel::load(path);
   std::filesystem::remove(path);
@@ -292,7 +293,7 @@ TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
   // created file (in any order: here the last slab first) gives the same file, byte for
   // byte, as the whole lattice; slabs loaded from that file hold exactly their rows (and step
   // on to the same state: tests/mpi_test.py).
-  const auto dir = std::filesystem::temp_directory_path() / ("nephos_slab_checkpoint_" + std::to_string(::getpid()));
+  const auto dir = test_support::temp_path("slab_checkpoint");
   std::filesystem::create_directories(dir);
   whole.save(dir / "whole.bin");
   WaterModel::create_checkpoint(dir / "gathered.bin", g, p, whole.steps_done());
@@ -414,7 +415,7 @@ TEST(ThermalConvection, RayleighBenardOnset) {
 }
 
 TEST(WaterModel, CheckpointErrors) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_not_ck.bin";
+  const auto path = test_support::temp_path("not_ck.bin");
   { std::ofstream(path) << "hello"; }
   EXPECT_THROW(WaterModel::load(path), FormatError);
   std::filesystem::remove(path);

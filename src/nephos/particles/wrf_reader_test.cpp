@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 #include "test_wrfout.hpp"
 
 namespace fs = std::filesystem;
@@ -17,7 +18,7 @@ using nephos::particles::test_data::WrfoutSpec;
 
 namespace {
 
-fs::path temp_file(const std::string& name) { return fs::temp_directory_path() / ("nephos_" + name + ".nc"); }
+fs::path temp_file(const std::string& name) { return nephos::test_support::temp_path(name + ".nc"); }
 
 // Writes a wrfout with the flaw of `s` as `name` and returns the FormatError reading it gives
 // (a test failure, and an empty error, when it reads without one).
@@ -157,7 +158,7 @@ TEST(WrfReader, TimesMustBeThereAndInWrfFormat) {
 
 TEST(WrfReader, UnreadableFilesAreIoErrors) {
   EXPECT_THROW(read_wrf("/nonexistent/wrfout_d01"), IoError);
-  const fs::path f = fs::temp_directory_path() / "nephos_not_netcdf.nc";
+  const fs::path f = nephos::test_support::temp_path("not_netcdf.nc");
   std::ofstream(f) << "this is not NetCDF\n";
   EXPECT_THROW(read_wrf(f), IoError);
 }

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/sampler.hpp"
 
@@ -165,8 +166,8 @@ TEST(GfsRecipe, HandCheckedCellsOfTheEmbeddedSample) {
 }
 
 TEST(Foreca, HourlyAndDailyJson) {
-  const auto dir = std::filesystem::temp_directory_path();
-  const auto hourly = dir / "nephos_foreca_hourly.json", daily = dir / "nephos_foreca_daily.json";
+  const auto hourly = test_support::temp_path("foreca_hourly.json"),
+             daily = test_support::temp_path("foreca_daily.json");
   // The shapes of thesis section 2.3.
   std::ofstream(hourly) << R"({"id": "1172451", "weather": [
       {"s": "d000", "t": "2024-02-05T08:00Z", "temp": 16, "wd": 343, "ws": 3},

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 
 namespace nephos::render {
 
@@ -45,7 +46,7 @@ TEST(Sensor, LeoNadir) {
 }
 
 TEST(Sensor, TomlCameraAndErrors) {
-  const auto path = std::filesystem::temp_directory_path() / "nephos_camera.toml";
+  const auto path = test_support::temp_path("camera.toml");
   std::ofstream(path) << "[camera]\nposition_lat_deg = 20.0\nposition_lon_deg = -60.0\nposition_alt_m = 3000.0\n"
                          "look_at_lat_deg = 20.5\nlook_at_lon_deg = -60.0\nlook_at_alt_m = 3000.0\nfov_deg = 60.0\n";
   const Sensor s = parse_sensor(path.string(), 64, 32);

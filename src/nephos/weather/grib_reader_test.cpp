@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/test_support.hpp"
 #include "nephos/weather/reader.hpp"
 #include "test_grib_writer.hpp"
 
@@ -23,8 +24,8 @@ constexpr double packing_tol = 1e-3;
 class GribReaderTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("nephos_grib_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ =
+        test_support::temp_path("grib_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
   }
@@ -293,7 +294,7 @@ TEST(MultiTimeGrib, ReadsTheFirstValidTimeAloneOrEveryTime) {
     for (CloudLayer l : {CloudLayer::low, CloudLayer::middle, CloudLayer::high})
       EXPECT_EQ(w.cloud_cover(l), want.cloud_cover(l)) << what << ": tcc " << name(l);
   };
-  const auto tmp = std::filesystem::temp_directory_path() / "nephos_multi_time";
+  const auto tmp = test_support::temp_path("multi_time");
   std::filesystem::create_directories(tmp);
   auto bytes = [](const std::filesystem::path& p) {
     std::ifstream in(p, std::ios::binary);

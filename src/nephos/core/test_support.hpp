@@ -1,0 +1,17 @@
+#pragma once
+// For tests only: scratch paths that no other test process shares. CTest runs every test case
+// as its own process, several at once (-j), so a fixed name under /tmp races between them (the
+// FP32 and FP16 cases of one water-model test once wrote and read the same checkpoint at once).
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+namespace nephos::test_support {
+
+/// temp_directory_path()/nephos_<pid>_<name>: unique to this process, stable within it.
+inline std::filesystem::path temp_path(const std::string& name) {
+  return std::filesystem::temp_directory_path() / ("nephos_" + std::to_string(::getpid()) + "_" + name);
+}
+
+}  // namespace nephos::test_support
