@@ -981,6 +981,7 @@ int main(int argc, char** argv) {
     init_logging(g.quiet ? Verbosity::quiet : g.verbose ? Verbosity::verbose : Verbosity::normal);
     Progress::set_enabled(!g.quiet);
     set_threads(g.threads);
+    remove_temporaries_on_interrupt();  // Ctrl-C or kill leaves no NAME.tmpPID behind
     if (*info) {
       std::cout << (lbm::WaterModel::is_checkpoint(info_file) ? lbm::WaterModel::describe_checkpoint(info_file)
                                                               : weather::describe_weather_file(info_file));

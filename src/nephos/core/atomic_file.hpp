@@ -1,6 +1,7 @@
 #pragma once
 // Write-then-rename: outputs appear whole or not at all. Write to temp_path(), then commit();
-// if commit() is never reached (an exception), the destructor removes the temporary.
+// if commit() is never reached (an exception), the destructor removes the temporary, and after
+// remove_temporaries_on_interrupt() so does an interrupt (Ctrl-C, kill, a closed terminal).
 #include <filesystem>
 
 namespace nephos {
@@ -21,7 +22,14 @@ class AtomicFile {
   std::filesystem::path destination_;
   std::filesystem::path temp_;
   bool committed_ = false;
+  int slot_ = -1;  // in the table of temporaries an interrupt removes (-1: not in it)
 };
+
+/// Installs handlers for SIGINT, SIGTERM and SIGHUP that remove every AtomicFile temporary still
+/// being written, then end the process by the same signal; a signal ignored when it is called
+/// (nohup's SIGHUP) stays ignored. For programs (nephos's main()), not
+/// for libraries loaded into another process (the Python module leaves the host's handlers).
+void remove_temporaries_on_interrupt();
 
 /// Creates `dir` (and parents) if needed; throws IoError naming it on failure.
 void ensure_directory(const std::filesystem::path& dir);
