@@ -10,6 +10,7 @@ packages=(
   build-essential cmake pkg-config
   libeccodes-dev libeccodes-tools     # GRIB1/GRIB2 reader + grib_ls/grib_copy
   libnetcdf-dev netcdf-bin            # CF-NetCDF output + ncdump
+  libhdf5-dev                         # NetCDF-4's storage layer (nephos turns off its exit-time clean-up)
   libpng-dev                          # PNG previews
   libopenexr-dev                      # multi-channel EXR output
   libopenvdb-dev libboost-iostreams-dev libtbb-dev   # volume output (clouds.vdb); OpenVDB's find module needs both

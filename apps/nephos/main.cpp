@@ -1,6 +1,7 @@
 // nephos command-line program. Only this file (and the Python layer) catches exceptions:
 // nephos::Error -> one-line message naming file/field/key, exit code 2.
 #include <fmt/format.h>
+#include <hdf5.h>
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -653,8 +654,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
     write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
     progress.advance();
   }
-  table.close();
-  csv.commit();
+  csv.commit(table);
   std::cout << fmt::format(
       "fly: {} frames of {}x{}, {} sprite clouds, mean frame {:.1f} ms (CPU time around glFinish; {})\n", o.frames,
       width, height, field.clouds().size(), total_ms / o.frames, renderer.gl_renderer());
@@ -777,8 +777,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
                                      w, scene.time_at(t));
     progress.advance();
   }
-  table.close();
-  csv.commit();
+  csv.commit(table);
   std::cout << fmt::format(
       "particles: {} particles from {} ({} x {} columns) generated in {:.2f} s; {} frames of {}x{} in {}\n",
       scene.initial().size(), w.source, w.grid.cols, w.grid.rows, gen_s, o.frames, width, height, out.string());
@@ -800,6 +799,11 @@ void reject_empty_values(CLI::App& app, const std::set<std::string>& allowed) {
 }
 
 int main(int argc, char** argv) {
+  // NetCDF-4 writes through HDF5, whose exit-time clean-up closes what is still open. After a
+  // file failed to close (a full disk), that clean-up crashed the process after its error
+  // message (HDF5 1.10.8): so no clean-up at exit. Every file is closed explicitly before then.
+  // Must precede any HDF5 call.
+  H5dont_atexit();
   // Under mpirun (several ranks) MPI is initialised for `nephos lbm`; plain runs never touch MPI.
   struct MpiSession {
     bool on;

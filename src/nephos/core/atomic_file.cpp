@@ -73,6 +73,12 @@ void AtomicFile::commit() {
   slot_ = -1;
 }
 
+void AtomicFile::commit(std::ofstream& stream) {
+  stream.close();
+  if (stream.fail()) throw IoError("write failed (disk full?)", {.file = destination_.string()});
+  commit();
+}
+
 void remove_temporaries_on_interrupt() {
   struct sigaction action {};
   action.sa_handler = remove_temporaries_and_reraise;

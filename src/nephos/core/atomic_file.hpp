@@ -3,6 +3,7 @@
 // if commit() is never reached (an exception), the destructor removes the temporary, and after
 // remove_temporaries_on_interrupt() so does an interrupt (Ctrl-C, kill, a closed terminal).
 #include <filesystem>
+#include <fstream>
 
 namespace nephos {
 
@@ -17,6 +18,10 @@ class AtomicFile {
   const std::filesystem::path& destination() const { return destination_; }
   /// Renames the temporary onto the destination. Throws IoError on failure.
   void commit();
+  /// Closes `stream` (writing what it still buffers), throws IoError naming the destination if
+  /// any write to it failed (a full disk), else commits: a stream's last bytes and its errors
+  /// otherwise surface only in its destructor, which reports nothing.
+  void commit(std::ofstream& stream);
 
  private:
   std::filesystem::path destination_;

@@ -25,25 +25,22 @@ void write_ply(const std::filesystem::path& path, const PlyPoints& p) {
   if (p.y.size() != n || p.z.size() != n || p.radius.size() != n || p.rgba.size() != 4 * n)
     throw ValueError("PLY point arrays differ in length", {.file = path.string()});
   AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path(), std::ios::binary);
-    if (!out) throw IoError("cannot write", {.file = file.temp_path().string()});
-    out << "ply\nformat binary_little_endian 1.0\n";
-    for (const auto& c : p.comments) out << "comment " << c << "\n";
-    out << "element vertex " << n << "\n" << vertex_properties << "end_header\n";
-    std::vector<char> buf(record_bytes * n);
-    for (std::size_t i = 0; i < n; ++i) {
-      char* r = buf.data() + i * record_bytes;
-      std::memcpy(r, &p.x[i], 4);
-      std::memcpy(r + 4, &p.y[i], 4);
-      std::memcpy(r + 8, &p.z[i], 4);
-      std::memcpy(r + 12, &p.rgba[4 * i], 4);
-      std::memcpy(r + 16, &p.radius[i], 4);
-    }
-    out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    if (!out.good()) throw IoError("write failed (disk full?)", {.file = file.temp_path().string()});
+  std::ofstream out(file.temp_path(), std::ios::binary);
+  if (!out) throw IoError("cannot open for writing", {.file = path.string()});
+  out << "ply\nformat binary_little_endian 1.0\n";
+  for (const auto& c : p.comments) out << "comment " << c << "\n";
+  out << "element vertex " << n << "\n" << vertex_properties << "end_header\n";
+  std::vector<char> buf(record_bytes * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    char* r = buf.data() + i * record_bytes;
+    std::memcpy(r, &p.x[i], 4);
+    std::memcpy(r + 4, &p.y[i], 4);
+    std::memcpy(r + 8, &p.z[i], 4);
+    std::memcpy(r + 12, &p.rgba[4 * i], 4);
+    std::memcpy(r + 16, &p.radius[i], 4);
   }
-  file.commit();
+  out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  file.commit(out);
 }
 
 PlyPoints read_ply(const std::filesystem::path& path) {

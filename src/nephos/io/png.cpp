@@ -51,7 +51,8 @@ void write_png(const std::filesystem::path& path, int width, int height, int cha
       png_write_row(png, pixels.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width * channels));
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
-    if (std::fflush(f.get()) != 0) throw IoError("write failed (disk full?)", {.file = path.string()});
+    // fclose writes what stdio still buffers, so its result is the write's last word.
+    if (std::fclose(f.release()) != 0) throw IoError("write failed (disk full?)", {.file = path.string()});
   }
   out.commit();
 }
