@@ -902,6 +902,23 @@ class Usage(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertEqual(run("--threads", "-3", "masks").returncode, 2)
 
+    def test_a_directory_where_a_file_belongs(self):
+        # A directory given as an input file: one line naming it and what was expected, exit 2
+        # (was: a TOML directory read as an empty configuration, a Foreca one an internal error).
+        with tempfile.TemporaryDirectory() as d:
+            for args, expected in ((("render", "--config", d, "--size", "8x8"), "a TOML configuration file"),
+                                   (("render", "--weather", d, "--size", "8x8"), "a weather file (GRIB)"),
+                                   (("fly", "--foreca", d, "--frames", "1"), "a Foreca JSON file"),
+                                   (("lbm", "--resume", d), "an lbm checkpoint"),
+                                   (("particles", "--wrf", d), "a WRF output file"),
+                                   (("info", d), "a weather file (GRIB)")):
+                r = run(*args) if args[0] == "info" else run(*args, "--out", Path(d) / "o")
+                self.assertEqual(r.returncode, 2, args)
+                self.assertEqual(r.stderr.strip().splitlines()[-1],
+                                 f"nephos: error: {d}: is a directory, expected {expected}" +
+                                 (" (wrfout NetCDF)" if args[0] == "particles" else ""), args)
+                self.assertFalse((Path(d) / "o").exists(), args)
+
     def test_empty_values_are_errors_not_defaults(self):
         # An unset shell variable ("--weather $FILE") must not quietly select the default input,
         # nor --out "" the working directory.

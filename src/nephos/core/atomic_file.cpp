@@ -99,4 +99,11 @@ void ensure_directory(const std::filesystem::path& dir) {
     throw IoError("cannot create output directory: " + (ec ? ec.message() : "not a directory"), {.file = dir.string()});
 }
 
+void require_input_file(const std::filesystem::path& path, const std::string& what) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) throw IoError("no such file", {.file = path.string()});
+  if (std::filesystem::is_directory(st)) throw IoError("is a directory, expected " + what, {.file = path.string()});
+}
+
 }  // namespace nephos

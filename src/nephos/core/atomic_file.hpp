@@ -4,6 +4,7 @@
 // remove_temporaries_on_interrupt() so does an interrupt (Ctrl-C, kill, a closed terminal).
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 namespace nephos {
 
@@ -38,5 +39,10 @@ void remove_temporaries_on_interrupt();
 
 /// Creates `dir` (and parents) if needed; throws IoError naming it on failure.
 void ensure_directory(const std::filesystem::path& dir);
+
+/// Throws IoError naming `path` if it does not exist ("no such file") or is a directory ("is a
+/// directory, expected WHAT"); `what` names what should be there ("a GRIB file"). Pipes and
+/// devices pass (`--config <(...)`); what reads them reports their content.
+void require_input_file(const std::filesystem::path& path, const std::string& what);
 
 }  // namespace nephos

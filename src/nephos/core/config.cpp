@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 
 namespace nephos {
@@ -36,6 +37,7 @@ ParamDict ParamDict::from_string(std::string_view text, const std::string& sourc
 }
 
 ParamDict ParamDict::from_file(const std::filesystem::path& path) {
+  require_input_file(path, "a TOML configuration file");
   std::ifstream in(path);
   if (!in) throw IoError("cannot open configuration file", {.file = path.string()});
   std::stringstream ss;

@@ -1,6 +1,7 @@
 #include "nephos/io/ply.hpp"
 
 #include <bit>
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -26,7 +27,7 @@ void write_ply(const std::filesystem::path& path, const PlyPoints& p) {
     throw ValueError("PLY point arrays differ in length", {.file = path.string()});
   AtomicFile file(path);
   std::ofstream out(file.temp_path(), std::ios::binary);
-  if (!out) throw IoError("cannot open for writing", {.file = path.string()});
+  if (!out) throw IoError(std::string("cannot open for writing: ") + std::strerror(errno), {.file = path.string()});
   out << "ply\nformat binary_little_endian 1.0\n";
   for (const auto& c : p.comments) out << "comment " << c << "\n";
   out << "element vertex " << n << "\n" << vertex_properties << "end_header\n";

@@ -2,7 +2,9 @@
 
 #include <png.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 
 #include "nephos/core/atomic_file.hpp"
@@ -29,7 +31,7 @@ void write_png(const std::filesystem::path& path, int width, int height, int cha
   AtomicFile out(path);
   {
     std::unique_ptr<FILE, FileCloser> f(std::fopen(out.temp_path().c_str(), "wb"));
-    if (!f) throw IoError("cannot open for writing", {.file = path.string()});
+    if (!f) throw IoError(std::string("cannot open for writing: ") + std::strerror(errno), {.file = path.string()});
     std::string err;
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn, nullptr);
     png_infop info = png ? png_create_info_struct(png) : nullptr;

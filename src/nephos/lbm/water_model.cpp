@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -789,7 +790,9 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
   AtomicFile out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
-    if (!os) throw IoError("cannot open checkpoint for writing", {.file = path.string()});
+    if (!os)
+      throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno),
+                    {.file = path.string()});
     write_checkpoint_header(os, h);
     std::vector<float> values(h.grid.cells());
     for (int c = 0; c < 2; ++c)
@@ -805,6 +808,7 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
 
 // Reads the header and leaves `is` at the populations.
 CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem::path& path) {
+  require_input_file(path, "an lbm checkpoint");
   if (!is) throw IoError("cannot open checkpoint", {.file = path.string()});
   char m[16] = {};
   is.read(m, sizeof m);
@@ -938,7 +942,9 @@ void WaterModel::create_checkpoint(const std::filesystem::path& file, const Grid
                                    const WaterModelParams& params, long step) {
   {
     std::ofstream os(file, std::ios::binary | std::ios::trunc);
-    if (!os) throw IoError("cannot open checkpoint for writing", {.file = file.string()});
+    if (!os)
+      throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno),
+                    {.file = file.string()});
     write_checkpoint_header(os, {global, step, params});
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
   }
@@ -951,7 +957,8 @@ void WaterModel::write_owned(const std::filesystem::path& file) const {
   // Each (component, direction, z) holds this slab's rows as one run of own x nx values in the
   // whole lattice's order (cell = (z ny + y) nx + x): 2 q nz positioned writes.
   std::fstream os(file, std::ios::binary | std::ios::in | std::ios::out);  // no truncation
-  if (!os) throw IoError("cannot open checkpoint for writing", {.file = file.string()});
+  if (!os)
+    throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno), {.file = file.string()});
   const std::size_t N = global_.cells(), stride = g_.direction_stride();
   const std::size_t run = static_cast<std::size_t>(owned_end() - owned_begin()) * static_cast<std::size_t>(g_.nx);
   std::vector<float> values(run);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 
 namespace nephos::particles {
@@ -47,6 +48,7 @@ const VarSpec specs[] = {
 class WrfFile {
  public:
   explicit WrfFile(const std::filesystem::path& path) : path_(path.string()) {
+    require_input_file(path, "a WRF output file (wrfout NetCDF)");
     const int st = nc_open(path_.c_str(), NC_NOWRITE, &id_);
     if (st != NC_NOERR) throw IoError(std::string("cannot open as NetCDF: ") + nc_strerror(st), {.file = path_});
   }

@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/weather/sampler.hpp"
 
@@ -197,6 +198,7 @@ CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weathe
 }
 
 WeatherCode code_from_foreca_json(const std::filesystem::path& path, const UtcTime& time) {
+  require_input_file(path, "a Foreca JSON file");
   std::ifstream in(path);
   if (!in) throw IoError("cannot open Foreca JSON", {.file = path.string()});
   nlohmann::json j;

@@ -15,6 +15,7 @@
 #include <memory>
 #include <set>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
 #include "nephos/weather/reader.hpp"
@@ -31,10 +32,7 @@ struct HandleDeleter {
 using Handle = std::unique_ptr<codes_handle, HandleDeleter>;
 
 std::unique_ptr<FILE, FileCloser> open_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
-  if (std::filesystem::is_directory(path, ec))
-    throw IoError("is a directory, expected a GRIB file", {.file = path.string()});
+  require_input_file(path, "a GRIB file");
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw IoError("cannot open for reading", {.file = path.string()});
   return std::unique_ptr<FILE, FileCloser>(f);

@@ -4,6 +4,7 @@
 
 #include <map>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 
 namespace nephos::weather {
@@ -39,8 +40,7 @@ std::unique_ptr<WeatherReader> make_reader(const std::string& name) {
 
 namespace {
 std::unique_ptr<WeatherReader> reader_for(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError("no such file", {.file = path.string()});
+  require_input_file(path, "a weather file (GRIB)");
   for (const auto& n : reader_names()) {
     auto reader = make_reader(n);
     if (reader->can_read(path)) return reader;
