@@ -901,6 +901,7 @@ class Usage(unittest.TestCase):
         r = run("masks", "--no-such-option")
         self.assertEqual(r.returncode, 2)
         self.assertEqual(run("--threads", "-3", "masks").returncode, 2)
+        self.assertEqual(run("--seed", "-1", "masks").returncode, 2)
 
     def test_a_directory_where_a_file_belongs(self):
         # A directory given as an input file: one line naming it and what was expected, exit 2

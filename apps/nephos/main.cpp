@@ -820,8 +820,16 @@ int main(int argc, char** argv) {
   GlobalOptions g;
   app.add_flag("-v,--verbose", g.verbose, "Log debug detail");
   app.add_flag("-q,--quiet", g.quiet, "Log only warnings and errors; no progress bars");
-  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
-  app.add_option("--seed", g.seed, "Seed for all randomness (counter-based; results do not depend on threads)");
+  // CLI11's NonNegativeNumber prints its range as 0 to 1.8e308 in full; and it alone would let
+  // --seed -1 through as 2^64 - 1.
+  const CLI::Validator non_negative(
+      [](std::string& value) {
+        return !value.empty() && value[0] == '-' ? std::string("must not be negative, got " + value) : std::string();
+      },
+      "", "non-negative");
+  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(non_negative);
+  app.add_option("--seed", g.seed, "Seed for all randomness (counter-based; results do not depend on threads)")
+      ->check(non_negative);
 
   std::string info_file;
   auto* info = app.add_subcommand("info", "Describe a weather file in nephos's terms, or an lbm checkpoint");
