@@ -141,6 +141,9 @@ class Scene {
     rp.stratified_samples = !sample_grid;
     rp.sample_seed = seed_;
     const render::Sensor sensor = render::parse_sensor(sensor_spec, width, height);
+    // The image, and its copy into numpy arrays.
+    require_memory(2 * render::render_memory_bytes(width, height, rp), "size",
+                   fmt::format("a {}x{} image with {} rays per pixel", width, height, samples));
     const UtcTime t = time ? UtcTime::parse(*time) : weather_.metadata().valid_time;
     const earth::SunPosition sun = earth::sun_position(t);
     render::RenderImage img;
@@ -330,7 +333,8 @@ PYBIND11_MODULE(nephos, m) {
   init_logging(Verbosity::quiet);  // a library in a Python process: no log lines unless asked
 
   // nephos's typed exceptions as Python's: bad values and configuration as ValueError, files
-  // as OSError, the rest as RuntimeError; the message names the file, field or key.
+  // as OSError, a request larger than the machine's memory as MemoryError, the rest as
+  // RuntimeError; the message names the file, field or key.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -342,6 +346,8 @@ PYBIND11_MODULE(nephos, m) {
       PyErr_SetString(PyExc_ValueError, e.what());
     } catch (const FormatError& e) {
       PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const ResourceError& e) {
+      PyErr_SetString(PyExc_MemoryError, e.what());
     } catch (const Error& e) {
       PyErr_SetString(PyExc_RuntimeError, e.what());
     }

@@ -133,6 +133,9 @@ class Render(unittest.TestCase):
                 scene.render(size=kwargs.pop("size", (8, 8)), **kwargs)
         with self.assertRaisesRegex(ValueError, "hours"):
             scene.advance(1e6)
+        # Checked against the machine's memory before any work (~46 GiB asked for here).
+        with self.assertRaisesRegex(MemoryError, r"'size': a 20000x20000 image with 256 rays per pixel needs about"):
+            scene.render(size=(20000, 20000), samples=256)
 
 
 def read_png_rgb8(path):

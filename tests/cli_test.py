@@ -250,6 +250,7 @@ class Render(unittest.TestCase):
                                  (["--displace-hours", "1e9"], "--displace-hours"),
                                  (["--advance-hours", "-1e9"], "--advance-hours"),
                                  (["--texture", "4096"], "--texture"),
+                                 (["--size", "20000x20000", "--samples", "256"], "image with 256 rays per pixel needs"),
                                  (["--sensor", "leo:91,0,700,10"], "latitude"),
                                  (["--sensor", "leo:0,nan,700,10"], "finite"),
                                  (["--bands", "vis,vis"], "listed twice"),

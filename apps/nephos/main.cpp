@@ -239,6 +239,9 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   const int tex = cp.texture_size;
   if (displace_hours) cp.set_displace_hours(*displace_hours, "--displace-hours");
   const render::Sensor sensor = render::parse_sensor(o.sensor, width, height);
+  // The image and, while the previews are written, one byte per pixel and channel more.
+  require_memory(render::render_memory_bytes(width, height, rp) + 3.0 * width * height, "--size",
+                 fmt::format("a {}x{} image with {} rays per pixel", width, height, o.samples));
 
   const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
   const UtcTime time = o.time.empty() ? w.metadata().valid_time : parse_time(o.time, "--time");

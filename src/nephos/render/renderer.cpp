@@ -13,6 +13,7 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
+#include "nephos/core/parallel.hpp"
 #include "nephos/core/progress.hpp"
 
 namespace nephos::render {
@@ -424,139 +425,162 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   img.latitude_deg.assign(npx, nanf);
   img.longitude_deg.assign(npx, nanf);
 
-  // Distance to the Earth's surface per pixel (infinity for space).
-  std::vector<float> t_earth(npx);
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    sub.row_rays(sensor, y, dirs.data());
-    for (int x = 0; x < w; ++x) {
-      const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
-      const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
-      t_earth[static_cast<std::size_t>(y) * w + x] =
-          e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
-    }
-  }
-
-  // One pass per cloud type, each timed; layers kept for compositing.
-  const std::size_t ns = scene.shells.size();
-  std::vector<Layer> layers(npx * ns);
-  for (std::size_t si = 0; si < ns; ++si) {
-    const clouds::CloudShell& shell = scene.shells[si];
-    const auto t0 = std::chrono::steady_clock::now();
-    std::vector<optics::OpticalProperties> props;
-    for (const auto* b : bands)
-      props.push_back(optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
-                                           shell.params().effective_radius_um, *b));
-    const optics::OpticalProperties vis_props =
-        optics::cloud_optics(shell.params().phase, shell.params().water_content_g_m3,
-                             shell.params().effective_radius_um, optics::band("vis"));
-    std::uint64_t marched = 0;  // an integer sum: the same whatever the thread count
-#pragma omp parallel
-    {
-      // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
-      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-      std::vector<double> t_max(static_cast<std::size_t>(w));
-      std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-#pragma omp for schedule(dynamic, 4) reduction(+ : marched)
-      for (int y = 0; y < h; ++y) {
-        // A whole row marched together (rays in lockstep: see march_shell).
-        sub.row_rays(sensor, y, dirs.data());
-        for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[static_cast<std::size_t>(y) * w + x];
-        march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
-                    params.bisection_iterations, row_hits.data());
-        for (int x = 0; x < w; ++x) {
-          const std::size_t px = static_cast<std::size_t>(y) * w + x;
-          const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
-          marched += hit.marched;
-          if (!hit.hit) continue;
-          Layer& L = layers[px * ns + si];
-          L.t = static_cast<float>(hit.t);
-          const double r = glm::length(hit.position);
-          const earth::Vec3 up = hit.position / r;
-          L.altitude = static_cast<float>(r - earth::radius_m);
-          L.tau_vis = static_cast<float>(vis_props.extinction_per_m * hit.depth_m);
-          const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
-          const double mu0 = glm::dot(hit.normal, sun_dir);
-          const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
-          for (std::size_t b = 0; b < nb; ++b) {
-            const double tau = props[b].extinction_per_m * hit.depth_m;
-            const optics::SlabResult slab = optics::two_stream_slab(tau, props[b].single_scattering_albedo);
-            const double e_sun = bands[b]->solar_irradiance * sun_scale;
-            double rad = 0;
-            if (mu_sun_local > 0) {
-              rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
-              rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
-            }
-            const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
-            rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
-            L.radiance[b] = static_cast<float>(rad);
-            L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
-          }
-        }
-        progress.advance();
-      }
-    }
-    img.seconds_per_type.emplace_back(weather::name(shell.type()),
-                                      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    img.marched_rays_per_type.push_back(marched);
-  }
-
-  // Background and front-to-back compositing.
   // Thermal background: the temperature of the weather's lowest level (1000 hPa for GFS).
   std::vector<float> surface_t;
   if (weather && weather->has(weather::Field::temperature, 0))
     surface_t.assign(weather->level_data(weather::Field::temperature, 0),
                      weather->level_data(weather::Field::temperature, 0) + weather->grid().size());
+
+  // Each cloud type's optics per band, and the visible extinction for the optical depth.
+  const std::size_t ns = scene.shells.size();
+  std::vector<std::vector<optics::OpticalProperties>> props(ns);
+  std::vector<optics::OpticalProperties> vis_props(ns);
+  for (std::size_t si = 0; si < ns; ++si) {
+    const clouds::CloudTypeParams& cp = scene.shells[si].params();
+    for (const auto* b : bands)
+      props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
+    vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
+  }
+
+  // The image is rendered in bands of rows whose per-type layers (36 B per pixel and type) fit
+  // in params.layer_budget_bytes (64 MiB), composited band by band: each type's pass still sweeps many rows with its
+  // textures in cache, and the image holds only its outputs (~37 B per pixel for three bands,
+  // not ~180 with every type's layers of the whole image: a 10848^2 full disc in 4 GiB, not 21).
+  // Every pixel's result is what it was: the bands change only the order of independent work.
+  const std::size_t row_layer_bytes = static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * sizeof(Layer);
+  const int band_rows = static_cast<int>(std::clamp<std::size_t>(
+      std::max<std::size_t>(params.layer_budget_bytes / row_layer_bytes, 8 * static_cast<std::size_t>(thread_count())),
+      1, static_cast<std::size_t>(h)));
+  std::vector<Layer> layers(static_cast<std::size_t>(band_rows) * w * ns);
+  std::vector<float> t_earth(static_cast<std::size_t>(band_rows) * w);  // to the Earth's surface; inf: space
+  std::vector<double> seconds(ns, 0.0);
+  std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
+
+  for (int y0 = 0; y0 < h; y0 += band_rows) {
+    const int y1 = std::min(h, y0 + band_rows);
+    std::fill(layers.begin(), layers.end(), Layer{});
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    std::vector<std::size_t> order(ns);
-    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    sub.row_rays(sensor, y, dirs.data());
-    for (int x = 0; x < w; ++x) {
-      const std::size_t px = static_cast<std::size_t>(y) * w + x;
-      const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
-      std::array<double, 3> bg{0, 0, 0};
-      if (std::isfinite(t_earth[px])) {
-        const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[px]) * d;
-        const earth::Geodetic g = earth::geodetic(q);
-        img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-        img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-        const double mu_s = std::max(0.0, glm::dot(sun_dir, q / glm::length(q)));
-        double t_surf = params.surface_temperature_k;
-        if (!surface_t.empty()) {
-          const float v = weather::sample_bilinear(weather->grid(), surface_t, g.lat_deg, g.lon_deg);
-          if (!std::isnan(v)) t_surf = v;
-        }
-        for (std::size_t b = 0; b < nb; ++b)
-          bg[b] =
-              params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI + planck[b]->forward(t_surf);
+    for (int y = y0; y < y1; ++y) {
+      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+      sub.row_rays(sensor, y, dirs.data());
+      for (int x = 0; x < w; ++x) {
+        const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
+        const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
+        t_earth[static_cast<std::size_t>(y - y0) * w + x] =
+            e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
       }
-      const Layer* pl = &layers[px * ns];
-      for (std::size_t s = 0; s < ns; ++s) order[s] = s;
-      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
-      std::array<double, 3> rad{0, 0, 0}, trans{1, 1, 1};
-      float tau = 0;
-      for (std::size_t s = 0; s < ns; ++s) {
-        const Layer& L = pl[order[s]];
-        if (!std::isfinite(L.t)) break;
-        if (s == 0) {
-          img.cloud_fraction[px] = 1;
-          img.cloud_top_altitude_m[px] = L.altitude;
-          img.cloud_type[px] = static_cast<std::int8_t>(scene.shells[order[s]].type());
-          const earth::Geodetic g = earth::geodetic(sensor.position + static_cast<double>(L.t) * d);
+    }
+
+    // One pass per cloud type over the band's rows, each timed; layers kept for compositing.
+    for (std::size_t si = 0; si < ns; ++si) {
+      const clouds::CloudShell& shell = scene.shells[si];
+      const auto t0 = std::chrono::steady_clock::now();
+      std::uint64_t marched_here = 0;
+#pragma omp parallel
+      {
+        // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
+        std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+        std::vector<double> t_max(static_cast<std::size_t>(w));
+        std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
+#pragma omp for schedule(dynamic, 4) reduction(+ : marched_here)
+        for (int y = y0; y < y1; ++y) {
+          // A whole row marched together (rays in lockstep: see march_shell).
+          sub.row_rays(sensor, y, dirs.data());
+          const std::size_t row = static_cast<std::size_t>(y - y0) * w;
+          for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[row + x];
+          march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
+                      params.bisection_iterations, row_hits.data());
+          for (int x = 0; x < w; ++x) {
+            const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
+            marched_here += hit.marched;
+            if (!hit.hit) continue;
+            Layer& L = layers[(row + x) * ns + si];
+            L.t = static_cast<float>(hit.t);
+            const double r = glm::length(hit.position);
+            const earth::Vec3 up = hit.position / r;
+            L.altitude = static_cast<float>(r - earth::radius_m);
+            L.tau_vis = static_cast<float>(vis_props[si].extinction_per_m * hit.depth_m);
+            const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
+            const double mu0 = glm::dot(hit.normal, sun_dir);
+            const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
+            for (std::size_t b = 0; b < nb; ++b) {
+              const double tau = props[si][b].extinction_per_m * hit.depth_m;
+              const optics::SlabResult slab = optics::two_stream_slab(tau, props[si][b].single_scattering_albedo);
+              const double e_sun = bands[b]->solar_irradiance * sun_scale;
+              double rad = 0;
+              if (mu_sun_local > 0) {
+                rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
+                rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
+              }
+              const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
+              rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
+              L.radiance[b] = static_cast<float>(rad);
+              L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
+            }
+          }
+          progress.advance();
+        }
+      }
+      seconds[si] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      marched[si] += marched_here;
+    }
+
+    // Background and front-to-back compositing of the band.
+#pragma omp parallel for schedule(static)
+    for (int y = y0; y < y1; ++y) {
+      std::vector<std::size_t> order(ns);
+      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+      sub.row_rays(sensor, y, dirs.data());
+      for (int x = 0; x < w; ++x) {
+        const std::size_t px = static_cast<std::size_t>(y) * w + x;
+        const std::size_t bpx = static_cast<std::size_t>(y - y0) * w + x;  // within the band
+        const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
+        std::array<double, 3> bg{0, 0, 0};
+        if (std::isfinite(t_earth[bpx])) {
+          const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[bpx]) * d;
+          const earth::Geodetic g = earth::geodetic(q);
           img.latitude_deg[px] = static_cast<float>(g.lat_deg);
           img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+          const double mu_s = std::max(0.0, glm::dot(sun_dir, q / glm::length(q)));
+          double t_surf = params.surface_temperature_k;
+          if (!surface_t.empty()) {
+            const float v = weather::sample_bilinear(weather->grid(), surface_t, g.lat_deg, g.lon_deg);
+            if (!std::isnan(v)) t_surf = v;
+          }
+          for (std::size_t b = 0; b < nb; ++b)
+            bg[b] = params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI +
+                    planck[b]->forward(t_surf);
         }
-        tau += L.tau_vis;
-        for (std::size_t b = 0; b < nb; ++b) {
-          rad[b] += trans[b] * L.radiance[b];
-          trans[b] *= L.transmittance[b];
+        const Layer* pl = &layers[bpx * ns];
+        for (std::size_t s = 0; s < ns; ++s) order[s] = s;
+        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
+        std::array<double, 3> rad{0, 0, 0}, trans{1, 1, 1};
+        float tau = 0;
+        for (std::size_t s = 0; s < ns; ++s) {
+          const Layer& L = pl[order[s]];
+          if (!std::isfinite(L.t)) break;
+          if (s == 0) {
+            img.cloud_fraction[px] = 1;
+            img.cloud_top_altitude_m[px] = L.altitude;
+            img.cloud_type[px] = static_cast<std::int8_t>(scene.shells[order[s]].type());
+            const earth::Geodetic g = earth::geodetic(sensor.position + static_cast<double>(L.t) * d);
+            img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+            img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+          }
+          tau += L.tau_vis;
+          for (std::size_t b = 0; b < nb; ++b) {
+            rad[b] += trans[b] * L.radiance[b];
+            trans[b] *= L.transmittance[b];
+          }
         }
+        img.cloud_optical_depth[px] = tau;
+        for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
       }
-      img.cloud_optical_depth[px] = tau;
-      for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
     }
+  }
+  for (std::size_t si = 0; si < ns; ++si) {
+    img.seconds_per_type.emplace_back(weather::name(scene.shells[si].type()), seconds[si]);
+    img.marched_rays_per_type.push_back(marched[si]);
   }
   return img;
 }
@@ -591,6 +615,16 @@ void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {
     throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", rays),
                      {.key = key});
   samples_per_axis = k;
+}
+
+double render_memory_bytes(int width, int height, const RenderParams& params) {
+  double per_pixel = 4 + 4 + 1 + 4 + 8;  // cloud top, optical depth, type, fraction, latitude/longitude
+  for (const auto& name : params.bands) per_pixel += optics::band(name).thermal ? 8 : 4;
+  if (params.samples_per_axis > 1) {
+    const double nb = static_cast<double>(params.bands.size());
+    per_pixel += (8 * nb + 8 + 8 + 2 + 8) + (21 + 4 * nb);  // the sums; one sub-pixel image
+  }
+  return per_pixel * width * height + static_cast<double>(params.layer_budget_bytes);
 }
 
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
