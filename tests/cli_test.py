@@ -511,8 +511,10 @@ class Fly(unittest.TestCase):
             out = Path(d) / "out"
             for args, needle in ((["--change", "d400@-1"], "--change"), (["--speed", "-5"], "--speed"),
                                  (["--altitude", "1e9"], "--altitude"), (["--position", "95,0"], "--position"),
-                                 (["--lod-km", "-1"], "--lod-km"), (["--time", "2024-06-31T10:00:00Z"], "calendar")):
-                Info.assert_input_error(self, run("fly", "--frames", "1", *args, "--out", out), needle)
+                                 (["--lod-km", "-1"], "--lod-km"), (["--time", "2024-06-31T10:00:00Z"], "calendar"),
+                                 (["--size", "20000x100"], "largest framebuffer")):
+                # -q: the frame size is checked once the weather is decoded, after its info line
+                Info.assert_input_error(self, run("-q", "fly", "--frames", "1", *args, "--out", out), needle)
             self.assertFalse(out.exists())
 
     def test_clear_sky_has_no_cloud_and_overcast_has_many(self):
@@ -784,8 +786,9 @@ class Particles(unittest.TestCase):
             for args, needle in ((["--count", "100000000000"], "more than this machine's"),
                                  (["--refine", "100000"], "more than this machine's"),
                                  (["--frame-minutes", "-5"], "--frame-minutes"), (["--lod-l0-km", "-1"], "--lod-l0-km"),
-                                 (["--camera", "0,0,5,0,nan"], "finite"), (["--camera", "0,0,5,0,120"], "pitch")):
-                Info.assert_input_error(self, run("particles", *args, "--out", out), needle)
+                                 (["--camera", "0,0,5,0,nan"], "finite"), (["--camera", "0,0,5,0,120"], "pitch"),
+                                 (["--size", "100x20000", "--count", "1000"], "largest framebuffer")):
+                Info.assert_input_error(self, run("-q", "particles", *args, "--out", out), needle)
             self.assertFalse(out.exists())
 
 class Bench(unittest.TestCase):

@@ -755,9 +755,9 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   };
 
   const fs::path out(o.out);
+  realtime::SpriteRenderer renderer(width, height, g.seed);  // before any output: it checks --size
   ensure_directory(out);
   particles::write_columns_netcdf(out / "columns.nc", w, 0);
-  realtime::SpriteRenderer renderer(width, height, g.seed);
   if (transparent) renderer.set_background(realtime::SpriteRenderer::Background::transparent);
   AtomicFile csv(out / "frames.csv");
   std::ofstream table(csv.temp_path());

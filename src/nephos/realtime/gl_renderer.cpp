@@ -439,6 +439,14 @@ void SpriteRenderer::make_current() {
 
 void SpriteRenderer::init_gl(std::uint64_t seed) {
   auto& m = *impl_;
+  // The frame is one renderbuffer: its side is bounded by the implementation (16384 on
+  // llvmpipe), beyond which the framebuffer would only be "incomplete".
+  GLint max_side = 0;
+  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_side);
+  if (w_ > max_side || h_ > max_side)
+    throw ValueError(
+        fmt::format("a {}x{} frame exceeds this OpenGL's largest framebuffer, {} pixels per side", w_, h_, max_side),
+        {.key = "--size"});
   glGenFramebuffers(1, &m.fbo);
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   glGenRenderbuffers(1, &m.colour);
