@@ -91,6 +91,10 @@ class Mpi(unittest.TestCase):
             self.assertEqual((d / "one" / "checkpoint_failed.bin").read_bytes(),
                              (d / "two" / "checkpoint_failed.bin").read_bytes())
             self.assertFalse((d / "two" / "lbm.nc").exists())
+            # One whole line per rank, those of ranks other than 0 naming theirs.
+            lines = [l for l in two.stderr.splitlines() if "error" in l]
+            self.assertEqual(sum(l.startswith("nephos: error: ") for l in lines), 1, two.stderr)
+            self.assertEqual(sum(l.startswith("nephos (rank 1 of 2): error: ") for l in lines), 1, two.stderr)
 
 
 if __name__ == "__main__":

@@ -817,6 +817,14 @@ int main(int argc, char** argv) {
       if (on) app::mpi_finalize();
     }
   } mpi_session(argc, argv);
+  // One line per message, written at once: under mpirun every rank reports (a failure on one
+  // rank stops all of them, each with the first failing rank's message), and the lines of
+  // ranks other than 0 say which rank they come from.
+  auto report = [&](const char* kind, const std::string& message) {
+    const std::string who =
+        mpi_session.on && app::mpi_rank() > 0 ? fmt::format(" (rank {} of {})", app::mpi_rank(), app::mpi_size()) : "";
+    std::cerr << fmt::format("nephos{}: {}: {}\n", who, kind, message) << std::flush;
+  };
   CLI::App app{"nephos: real weather data to three-dimensional clouds"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("nephos ") + NEPHOS_VERSION);
@@ -1013,16 +1021,17 @@ int main(int argc, char** argv) {
     if (*part) return run_particles(po, g);
     if (*bench_part) return bench::run_particles_bench(pbo, g.seed);
   } catch (const Error& e) {
-    std::cerr << "nephos: error: " << e.what() << "\n";
+    report("error", e.what());
     return exit_input_error;
   } catch (const std::bad_alloc&) {
     // The commands check their big allocations against the machine's memory first; this is
     // what is left when the memory other programs hold makes the difference.
-    std::cerr << "nephos: error: out of memory (other programs may hold what this run needs; try a smaller "
-                 "--size, --grid, --texture or --count)\n";
+    report("error",
+           "out of memory (other programs may hold what this run needs; try a smaller --size, --grid, --texture or "
+           "--count)");
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "nephos: internal error: " << e.what() << "\n";
+    report("internal error", e.what());
     return 1;
   }
   return 0;
