@@ -1,0 +1,103 @@
+// nephos info (what a weather file or checkpoint holds) and nephos masks (the cloud weather
+// masks of Table 1 as PNGs and CF-NetCDF).
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <iostream>
+#include <memory>
+
+#include "cli_support.hpp"
+#include "command.hpp"
+#include "nephos/core/atomic_file.hpp"
+#include "nephos/core/config.hpp"
+#include "nephos/core/error.hpp"
+#include "nephos/lbm/water_model.hpp"
+#include "nephos/weather/info.hpp"
+#include "nephos/weather/masks.hpp"
+#include "nephos/weather/masks_io.hpp"
+
+namespace fs = std::filesystem;
+
+namespace nephos::app {
+
+namespace {
+
+struct MasksOptions {
+  std::string weather;
+  std::string weather_time;  // a valid time of a file that holds several (ISO 8601)
+  std::string out = "out";
+  std::string config;
+  bool synthetic = false;
+  int png_width = 1440;
+};
+
+int run_masks(const MasksOptions& o, const GlobalOptions& g) {
+  const auto t0 = std::chrono::steady_clock::now();
+  weather::MaskParams params;
+  if (!o.config.empty()) {
+    const ParamDict dict = ParamDict::from_file(o.config);
+    params = weather::MaskParams::from(dict);
+    dict.check_unused();
+  }
+  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
+  const auto& m = w.metadata();
+  spdlog::info("valid {} (run {} + {:g} h), {}", m.valid_time.iso(), m.reference_time.iso(), m.forecast_step_h,
+               w.grid().describe());
+  const weather::WeatherMasks masks = weather::compute_masks(w, params);
+
+  const fs::path out(o.out);
+  ensure_directory(out);
+  weather::write_masks_netcdf(out / "masks.nc", masks, w, params);
+  for (int t = 0; t < weather::cloud_type_count; ++t) {
+    const auto type = static_cast<weather::CloudType>(t);
+    weather::write_mask_png(out / (std::string(weather::name(type)) + ".png"), masks.grid, masks[type], o.png_width);
+  }
+  std::cout << fmt::format("{:<12} {:>10}\n", "mask", "cover");
+  for (int t = 0; t < weather::cloud_type_count; ++t) {
+    const auto type = static_cast<weather::CloudType>(t);
+    std::cout << fmt::format("{:<12} {:>10.3f}\n", weather::name(type), weather::area_mean(masks.grid, masks[type]));
+  }
+  const auto agreement = weather::compare_with_gfs_cloud_cover(masks, w);
+  if (!agreement.empty()) {
+    std::cout << "\nagreement with GFS cloud cover (area-weighted):\n";
+    std::cout << fmt::format("{:<7} {:<30} {:>10} {:>10} {:>12}\n", "layer", "mask", "mask cover", "GFS cover",
+                             "correlation");
+    for (const auto& a : agreement)
+      std::cout << fmt::format("{:<7} {:<30} {:>10.3f} {:>10.3f} {:>12.3f}\n", weather::name(a.layer), a.mask,
+                               a.mask_cover, a.gfs_cover, a.correlation);
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({})", out.string(), secs, threads_text());
+  return 0;
+}
+
+}  // namespace
+
+Command add_info_command(CLI::App& app) {
+  auto info_file = std::make_shared<std::string>();
+  auto* info = app.add_subcommand("info", "Describe a weather file in nephos's terms, or an lbm checkpoint");
+  info->add_option("file", *info_file, "GRIB1/GRIB2 file, or a checkpoint of nephos lbm")->required();
+  return {info, [info_file] {
+            std::cout << (lbm::WaterModel::is_checkpoint(*info_file) ? lbm::WaterModel::describe_checkpoint(*info_file)
+                                                                     : weather::describe_weather_file(*info_file));
+            return 0;
+          }};
+}
+
+Command add_masks_command(CLI::App& app, const GlobalOptions& g) {
+  auto o = std::make_shared<MasksOptions>();
+  auto* masks = app.add_subcommand("masks", "Cloud weather masks (Table 1) as PNGs and CF-NetCDF");
+  masks->add_option("--weather", o->weather, "GRIB file (default: the embedded GFS sample)");
+  masks->add_option("--weather-time", o->weather_time,
+                    "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
+  masks->add_flag("--synthetic", o->synthetic, "Use a synthetic atmosphere from --seed instead of a file");
+  masks->add_option("--out", o->out, "Output directory")->capture_default_str();
+  masks->add_option("--config", o->config, "TOML file with [cloud_fraction] and [masks.*] parameters");
+  masks->add_option("--png-width", o->png_width, "Width of the PNG previews [pixels]")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 16384));
+  return {masks, [o, &g] { return run_masks(*o, g); }};
+}
+
+}  // namespace nephos::app
