@@ -68,17 +68,23 @@ weather::WeatherGrid open_weather_file(const std::string& path, const std::strin
   return weather::open_weather(file, parse_time(valid_time, "--weather-time"));
 }
 
-weather::WeatherGrid load_weather(const std::string& path, bool synthetic, std::uint64_t seed,
-                                  const std::string& valid_time) {
-  if (synthetic) {
-    if (!valid_time.empty())
+void add_weather_source_options(CLI::App* c, WeatherSource& source) {
+  c->add_option("--weather", source.file, "GRIB file (default: the embedded GFS sample)");
+  c->add_option("--weather-time", source.valid_time,
+                "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
+  c->add_flag("--synthetic", source.synthetic, "Use a synthetic atmosphere from --seed instead of a file");
+}
+
+weather::WeatherGrid load_weather(const WeatherSource& source, std::uint64_t seed) {
+  if (source.synthetic) {
+    if (!source.valid_time.empty())
       throw ValueError("synthetic weather has no file to choose a time from", {.key = "--weather-time"});
     weather::SyntheticWeatherParams p;
     p.seed = seed;
     spdlog::info("weather: synthetic atmosphere, seed {}", seed);
     return weather::make_synthetic_weather(p);
   }
-  return open_weather_file(path, valid_time);
+  return open_weather_file(source.file, source.valid_time);
 }
 
 void add_background_option(CLI::App* c, std::string& value) {

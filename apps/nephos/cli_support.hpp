@@ -32,9 +32,16 @@ UtcTime parse_time(const std::string& text, const char* key);
 /// The weather file (default: the embedded sample), at `valid_time` (ISO 8601) when the file
 /// holds several valid times and one is asked for.
 weather::WeatherGrid open_weather_file(const std::string& path, const std::string& valid_time);
+
+/// --weather FILE, --weather-time T and --synthetic, as nephos masks and nephos render take them.
+struct WeatherSource {
+  std::string file;        ///< empty: the embedded sample
+  std::string valid_time;  ///< a valid time of a file that holds several (ISO 8601)
+  bool synthetic = false;  ///< an atmosphere made from --seed instead of a file
+};
+void add_weather_source_options(CLI::App* c, WeatherSource& source);
 /// open_weather_file(), or with `synthetic` an atmosphere made from `seed`.
-weather::WeatherGrid load_weather(const std::string& path, bool synthetic, std::uint64_t seed,
-                                  const std::string& valid_time);
+weather::WeatherGrid load_weather(const WeatherSource& source, std::uint64_t seed);
 
 /// --background of nephos fly and nephos particles.
 void add_background_option(CLI::App* c, std::string& value);

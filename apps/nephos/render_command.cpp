@@ -29,9 +29,7 @@ namespace nephos::app {
 namespace {
 
 struct RenderOptions {
-  std::string weather;
-  std::string weather_time;  // a valid time of a file that holds several (ISO 8601)
-  bool synthetic = false;
+  WeatherSource weather;
   std::string sensor = "geo:-75.2";
   std::string size = "1000x1000";
   std::string types = "low_stratus,low_cumulus,altostratus,cirrus";
@@ -82,7 +80,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   require_memory(render::render_memory_bytes(width, height, rp) + 3.0 * width * height, "--size",
                  fmt::format("a {}x{} image with {} rays per pixel", width, height, o.samples));
 
-  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
+  const weather::WeatherGrid w = load_weather(o.weather, g.seed);
   const UtcTime time = o.time.empty() ? w.metadata().valid_time : parse_time(o.time, "--time");
   const earth::SunPosition sun = earth::sun_position(time);
   spdlog::info("sensor: {}", sensor.description);
@@ -131,10 +129,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
 Command add_render_command(CLI::App& app, const GlobalOptions& g) {
   auto o = std::make_shared<RenderOptions>();
   auto* rend = app.add_subcommand("render", "Render 3D fractal clouds from a sensor (GEO, LEO or any camera)");
-  rend->add_option("--weather", o->weather, "GRIB file (default: the embedded GFS sample)");
-  rend->add_option("--weather-time", o->weather_time,
-                   "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
-  rend->add_flag("--synthetic", o->synthetic, "Use a synthetic atmosphere from --seed instead of a file");
+  add_weather_source_options(rend, o->weather);
   rend->add_option("--sensor", o->sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")
       ->capture_default_str();
   rend->add_option("--size", o->size, "Focal-plane array WIDTHxHEIGHT [pixels]")->capture_default_str();

@@ -24,11 +24,9 @@ namespace nephos::app {
 namespace {
 
 struct MasksOptions {
-  std::string weather;
-  std::string weather_time;  // a valid time of a file that holds several (ISO 8601)
+  WeatherSource weather;
   std::string out = "out";
   std::string config;
-  bool synthetic = false;
   int png_width = 1440;
 };
 
@@ -40,7 +38,7 @@ int run_masks(const MasksOptions& o, const GlobalOptions& g) {
     params = weather::MaskParams::from(dict);
     dict.check_unused();
   }
-  const weather::WeatherGrid w = load_weather(o.weather, o.synthetic, g.seed, o.weather_time);
+  const weather::WeatherGrid w = load_weather(o.weather, g.seed);
   const auto& m = w.metadata();
   spdlog::info("valid {} (run {} + {:g} h), {}", m.valid_time.iso(), m.reference_time.iso(), m.forecast_step_h,
                w.grid().describe());
@@ -88,10 +86,7 @@ Command add_info_command(CLI::App& app) {
 Command add_masks_command(CLI::App& app, const GlobalOptions& g) {
   auto o = std::make_shared<MasksOptions>();
   auto* masks = app.add_subcommand("masks", "Cloud weather masks (Table 1) as PNGs and CF-NetCDF");
-  masks->add_option("--weather", o->weather, "GRIB file (default: the embedded GFS sample)");
-  masks->add_option("--weather-time", o->weather_time,
-                    "Which valid time (ISO 8601 UTC) of a file that holds several (default: its first)");
-  masks->add_flag("--synthetic", o->synthetic, "Use a synthetic atmosphere from --seed instead of a file");
+  add_weather_source_options(masks, o->weather);
   masks->add_option("--out", o->out, "Output directory")->capture_default_str();
   masks->add_option("--config", o->config, "TOML file with [cloud_fraction] and [masks.*] parameters");
   masks->add_option("--png-width", o->png_width, "Width of the PNG previews [pixels]")
