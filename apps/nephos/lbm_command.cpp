@@ -126,19 +126,9 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
       model.save(ck);
       throw NumericError(fmt::format("{}; state saved to {}", *bad, ck.string()));
     };
-    const auto t0 = std::chrono::steady_clock::now();
     const long first = model.steps_done();
-    {
-      Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
-      while (model.steps_done() < o.iterations) {
-        model.step();
-        progress.advance();
-        if (model.steps_done() % 10 == 0) check();
-        if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0) model.save(out / "checkpoint.bin");
-      }
-    }
-    check();
-    t_water = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    t_water = step_water_model(model, o.iterations, o.checkpoint_every, out, check,
+                               [&](const fs::path& path) { model.save(path); });
     vapour = model.vapour();
     temperature = model.temperature();
     done = model.steps_done() - first;

@@ -19,6 +19,23 @@
 
 namespace nephos::app {
 
+double step_water_model(lbm::WaterModel& model, long iterations, long checkpoint_every,
+                        const std::filesystem::path& out_dir, const std::function<void()>& check,
+                        const std::function<void(const std::filesystem::path&)>& save) {
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    Progress progress("water model", static_cast<std::size_t>(std::max(0L, iterations - model.steps_done())));
+    while (model.steps_done() < iterations) {
+      model.step();
+      progress.advance();
+      if (model.steps_done() % 10 == 0) check();
+      if (checkpoint_every > 0 && model.steps_done() % checkpoint_every == 0) save(out_dir / "checkpoint.bin");
+    }
+  }
+  check();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 bool mpi_launched() {
   for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"})
     if (const char* s = std::getenv(v)) return std::atoi(s) > 1;
@@ -194,22 +211,13 @@ WaterResult run_water_mpi(const lbm::Grid3& fresh_grid, const lbm::WaterModelPar
     checkpoint(ck);
     throw NumericError(fmt::format("{}; state saved to {}", first->message, ck.string()));
   };
-  const auto t0 = std::chrono::steady_clock::now();
   const long first = model.steps_done();
-  Progress progress("water model", static_cast<std::size_t>(std::max(0L, o.iterations - first)));
-  while (model.steps_done() < o.iterations) {
-    model.step();
-    progress.advance();
-    if (model.steps_done() % 10 == 0) check();
-    if (o.checkpoint_every > 0 && model.steps_done() % o.checkpoint_every == 0)
-      checkpoint(o.out_dir / "checkpoint.bin");
-  }
-  check();
+  const double seconds = step_water_model(model, o.iterations, o.checkpoint_every, o.out_dir, check, checkpoint);
   WaterResult result;
   result.grid = grid;
   result.first_step = first;
   result.steps_done = model.steps_done();
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.seconds = seconds;
   result.local_vapour = model.vapour();
   result.vapour = gather_slabs(grid, result.local_vapour);
   result.temperature = gather_slabs(grid, model.temperature());

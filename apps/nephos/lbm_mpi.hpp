@@ -15,6 +15,14 @@
 
 namespace nephos::app {
 
+/// The water stage's loop, the same in one process and on every rank: steps `model` up to
+/// `iterations` with a progress line, calls `check` (the densities) every 10 steps and at the
+/// end, and `save` with out_dir/checkpoint.bin every `checkpoint_every` steps (0: never).
+/// Returns the seconds it took.
+double step_water_model(lbm::WaterModel& model, long iterations, long checkpoint_every,
+                        const std::filesystem::path& out_dir, const std::function<void()>& check,
+                        const std::function<void(const std::filesystem::path&)>& save);
+
 /// True when this process was started by mpirun/mpiexec with more than one rank.
 bool mpi_launched();
 void mpi_init(int& argc, char**& argv);
