@@ -17,6 +17,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/io/png.hpp"
 #include "nephos/realtime/cloud_field.hpp"
+#include "nephos/realtime/flight.hpp"
 #include "nephos/realtime/frame_logic.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
@@ -30,28 +31,17 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-// The thesis's flight: straight and level at 8000 ft, 250 kt, 30 frames per second of flight,
-// through the clouds of weather code `code`.
-struct Flight {
-  realtime::Camera cam{{0, 0, 8000 * 0.3048}, {1, 0, -0.05}, {0, 0, 1}, 60};
-  realtime::CloudField field;
-  realtime::ResortPolicy policy;
-  Flight(const char* code, bool clustered, std::uint64_t seed) : field(recipe(code, clustered), seed, cam.position) {}
-  static realtime::CloudRecipe recipe(const char* code, bool clustered) {
-    realtime::CloudRecipe r = realtime::recipe_from_code(realtime::parse_weather_code(code));
-    r.clustered = clustered;
-    return r;
-  }
-  /// Flies to frame `frame` and draws it; the frame time [ms].
-  double frame(int frame, realtime::SpriteRenderer& renderer, const realtime::SunLight& sun, bool sort_opt,
-               bool impostors) {
-    cam.position.x += 250 * 0.514444 / 30.0;
-    field.advance_time(frame / 30.0);
-    field.follow_camera(cam.position, cam.forward);
-    const bool sort = !sort_opt || policy.due(cam.position, cam.forward);
-    return renderer.draw(field, cam, sun, sort, impostors).milliseconds;
-  }
-};
+// The thesis's flight (realtime::StraightFlight: 8000 ft, 250 kt, 30 frames per second of
+// flight) through the clouds of weather code `code`, clustered or spread as asked.
+realtime::StraightFlight make_flight(const char* code, bool clustered, std::uint64_t seed, bool sort_opt,
+                                     bool impostors) {
+  realtime::CloudRecipe r = realtime::recipe_from_code(realtime::parse_weather_code(code));
+  r.clustered = clustered;
+  realtime::FlightParams p;
+  p.sort_optimised = sort_opt;
+  p.impostors = impostors;
+  return realtime::StraightFlight(r, seed, p);
+}
 
 // Test E (200 clouds, sort-optimised) in blocks of `block` frames alternating between two
 // renderers, one with the impostor ring and one drawing every sprite, each flying its own copy
@@ -68,12 +58,12 @@ struct Flight {
 std::array<std::vector<double>, 2> paired_test_e(const FlyBenchOptions& o, std::uint64_t seed, bool clustered,
                                                  const realtime::SunLight& sun, int block) {
   std::array<std::unique_ptr<realtime::SpriteRenderer>, 2> renderers;
-  std::array<std::unique_ptr<Flight>, 2> flights;
+  std::array<std::unique_ptr<realtime::StraightFlight>, 2> flights;
   for (std::size_t w = 0; w < 2; ++w) {
     renderers[w] = std::make_unique<realtime::SpriteRenderer>(o.width, o.height, seed);
-    flights[w] = std::make_unique<Flight>("d400", clustered, seed);
-    Flight warm_up("d400", clustered, seed);
-    warm_up.frame(0, *renderers[w], sun, true, w == 0);
+    flights[w] = std::make_unique<realtime::StraightFlight>(make_flight("d400", clustered, seed, true, w == 0));
+    realtime::StraightFlight warm_up = make_flight("d400", clustered, seed, true, w == 0);
+    warm_up.next_frame(*renderers[w], sun);
     renderers[w]->set_impostor_radius(8000);  // a fresh ring
   }
   std::array<std::vector<double>, 2> ms;
@@ -82,7 +72,7 @@ std::array<std::vector<double>, 2> paired_test_e(const FlyBenchOptions& o, std::
       const auto which = static_cast<std::size_t>((round + k) % 2);  // 0: impostors
       renderers[which]->make_current();
       for (int frame = first; frame < std::min(first + block, o.frames); ++frame)
-        ms[which].push_back(flights[which]->frame(frame, *renderers[which], sun, true, which == 0));
+        ms[which].push_back(flights[which]->next_frame(*renderers[which], sun).milliseconds);
     }
   return ms;
 }
@@ -108,18 +98,18 @@ int run_fly_bench(const FlyBenchOptions& o, std::uint64_t seed) {
         for (bool impostors : {true, false}) {
           if (o.tests.find(static_cast<char>('A' + t)) == std::string::npos) continue;
           renderer.set_impostor_radius(8000);  // a fresh ring for every case
-          Flight flight(codes[t], clustered, seed);
+          realtime::StraightFlight f_case = make_flight(codes[t], clustered, seed, sort_opt, impostors);
           std::vector<double> ms;
           const double c0 = cpu_seconds();
           const auto w0 = std::chrono::steady_clock::now();
-          for (int f = 0; f < o.frames; ++f) ms.push_back(flight.frame(f, renderer, sun, sort_opt, impostors));
+          for (int f = 0; f < o.frames; ++f) ms.push_back(f_case.next_frame(renderer, sun).milliseconds);
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
           const double load = (cpu_seconds() - c0) / wall;  // cores busy on average (2 = both)
           p95s.push_back(percentile(ms, 0.95));
           if (t == 4 && sort_opt)
             e_mean[clustered][impostors] = mean(ms), e_p95[clustered][impostors] = percentile(ms, 0.95);
           std::cout << fmt::format("{:<5} {:>6} {:>10} {:>9} {:>10} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.1f} {:>8.0f}%\n",
-                                   std::string(1, static_cast<char>('A' + t)), flight.field.clouds().size(),
+                                   std::string(1, static_cast<char>('A' + t)), f_case.field().clouds().size(),
                                    clustered ? "yes" : "no", sort_opt ? "yes" : "no", impostors ? "yes" : "no",
                                    mean(ms), percentile(ms, 0.5), percentile(ms, 0.95), percentile(ms, 0.99),
                                    100 * load);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -28,6 +29,9 @@
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/optics/optics.hpp"
+#include "nephos/realtime/flight.hpp"
+#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/weather_input.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
 #include "nephos/weather/masks.hpp"
@@ -271,6 +275,98 @@ class WaterModel {
   lbm::WaterModel model_;
 };
 
+// A straight, level flight through sprite clouds, drawn headless (EGL) frame by frame: what
+// `nephos fly` writes as PNGs, as numpy arrays.
+class Flight {
+ public:
+  Flight(const std::optional<std::string>& code, const std::optional<std::string>& metar,
+         const std::optional<std::string>& foreca, const Weather* weather, std::pair<double, double> position,
+         std::pair<int, int> size, double speed_kt, double altitude_ft, const std::string& time, std::uint64_t seed,
+         bool impostors, double impostor_radius_km, double lod_km, bool sort_opt, const std::string& background,
+         const std::string& gl) {
+    const auto [width, height] = size;
+    if (width < 1 || height < 1 || width > 20000 || height > 20000)
+      throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height),
+                       {.key = "size"});
+    const auto [lat, lon] = position;
+    require_range(lat, -90, 90, "position", "the latitude [deg]");
+    require_range(lon, -360, 360, "position", "the longitude [deg]");
+    require_range(altitude_ft, realtime::min_altitude_ft, realtime::max_altitude_ft, "altitude_ft",
+                  "the altitude [ft]");
+    require_range(speed_kt, 0, realtime::max_speed_kt, "speed_kt", "the ground speed [kt]");
+    require_range(lod_km, 0, realtime::max_lod_km, "lod_km", "the level-of-detail distance [km] (0: off)");
+    if (!(impostor_radius_km > 0 && impostor_radius_km <= 1e4))
+      throw ValueError(fmt::format("the impostor ring radius [km] must be in (0, 10000], got {:g}", impostor_radius_km),
+                       {.key = "impostor_radius_km"});
+    if (background != "sky" && background != "transparent")
+      throw ValueError("expected \"sky\" or \"transparent\", got '" + background + "'", {.key = "background"});
+    transparent_ = background == "transparent";
+    const UtcTime t = UtcTime::parse(time);
+    if ((code.has_value() + metar.has_value() + foreca.has_value() + (weather != nullptr)) > 1)
+      throw ValueError("give one of code, metar, foreca, weather", {.key = "code"});
+    realtime::CloudRecipe recipe;
+    if (metar)
+      recipe = realtime::recipe_from_metar(*metar);
+    else if (foreca)
+      recipe = realtime::recipe_from_code(realtime::code_from_foreca_json(*foreca, t));
+    else if (weather)
+      recipe = realtime::recipe_from_weather(weather::compute_masks(weather->grid(), weather::MaskParams{}),
+                                             weather->grid(), lat, lon);
+    else
+      recipe = realtime::recipe_from_code(realtime::parse_weather_code(code.value_or("d300")));
+    realtime::FlightParams fp;
+    fp.altitude_m = altitude_ft * 0.3048;
+    fp.speed_m_s = speed_kt * 0.514444;
+    fp.sort_optimised = sort_opt;
+    fp.impostors = impostors;
+    flight_.emplace(recipe, seed, fp);
+    sun_ = realtime::sun_light(t, lat, lon);
+    renderer_ = std::make_unique<realtime::SpriteRenderer>(width, height, seed, realtime::gl_api_from_name(gl));
+    renderer_->set_impostor_radius(impostor_radius_km * 1000);
+    renderer_->set_single_sprite_distance(lod_km * 1000);
+    if (transparent_) renderer_->set_background(realtime::SpriteRenderer::Background::transparent);
+  }
+
+  void change_weather(const std::string& code, double at_s) {
+    require_range(at_s, 0, 1e7, "at_s", "the time of the change [s of flight]");
+    flight_->change_weather_at(realtime::recipe_from_code(realtime::parse_weather_code(code)), at_s);
+  }
+
+  py::array_t<std::uint8_t> frame() {
+    std::vector<std::uint8_t> rgba;
+    {
+      py::gil_scoped_release release;
+      renderer_->make_current();  // several flights may live in one process
+      last_ = flight_->next_frame(*renderer_, sun_);
+      rgba = renderer_->read_pixels();
+    }
+    const int w = renderer_->width(), h = renderer_->height();
+    if (transparent_) return to_array(realtime::straight_alpha(std::move(rgba)), {h, w, 4});
+    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3);
+    for (std::size_t p = 0, n = rgb.size() / 3; p < n; ++p)
+      for (int c = 0; c < 3; ++c) rgb[3 * p + static_cast<std::size_t>(c)] = rgba[4 * p + static_cast<std::size_t>(c)];
+    return to_array(rgb, {h, w, 3});
+  }
+
+  py::dict stats() const {
+    py::dict d;
+    d["frame_ms"] = last_.milliseconds;
+    d["sprites"] = last_.sprites;
+    d["impostor_updates"] = last_.impostor_updates;
+    return d;
+  }
+  int frames_flown() const { return flight_->frames_flown(); }
+  std::size_t clouds() const { return flight_->field().clouds().size(); }
+  std::string gl_renderer() const { return renderer_->gl_renderer(); }
+
+ private:
+  std::optional<realtime::StraightFlight> flight_;
+  std::unique_ptr<realtime::SpriteRenderer> renderer_;
+  realtime::SunLight sun_{};
+  realtime::FrameStats last_{};
+  bool transparent_ = false;
+};
+
 py::tuple percolate(const py::array_t<float, py::array::c_style | py::array::forcecast>& vapour, int refinement,
                     std::uint64_t seed, double rho10) {
   const lbm::Grid3 g = grid_of(vapour, "vapour");
@@ -413,6 +509,37 @@ PYBIND11_MODULE(nephos, m) {
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "
            "file; time: ISO 8601 UTC (default: the weather's valid time).");
+
+  py::class_<Flight>(m, "Flight",
+                     "A straight, level flight eastwards through sprite clouds at 30 frames per second of flight, "
+                     "drawn headless (EGL, OpenGL ES 3.0 or 3.3 core): the frames of `nephos fly` as numpy arrays.")
+      .def(
+          py::init([](const std::optional<std::string>& code, const std::optional<std::string>& metar,
+                      const std::optional<std::string>& foreca, const Weather* weather,
+                      std::pair<double, double> position, std::pair<int, int> size, double speed_kt, double altitude_ft,
+                      const std::string& time, std::uint64_t seed, bool impostors, double impostor_radius_km,
+                      double lod_km, bool sort_opt, const std::string& background, const std::string& gl) {
+            return std::make_unique<Flight>(code, metar, foreca, weather, position, size, speed_kt, altitude_ft, time,
+                                            seed, impostors, impostor_radius_km, lod_km, sort_opt, background, gl);
+          }),
+          py::kw_only(), py::arg("code") = py::none(), py::arg("metar") = py::none(), py::arg("foreca") = py::none(),
+          py::arg("weather") = nullptr, py::arg("position") = std::make_pair(48.0, 11.0),
+          py::arg("size") = std::make_pair(1280, 720), py::arg("speed_kt") = 250.0, py::arg("altitude_ft") = 8000.0,
+          py::arg("time") = "2024-06-21T10:00:00Z", py::arg("seed") = 1, py::arg("impostors") = true,
+          py::arg("impostor_radius_km") = 8.0, py::arg("lod_km") = 20.0, py::arg("sort_opt") = true,
+          py::arg("background") = "sky", py::arg("gl") = "gles3",
+          "The clouds of one weather source (a Foreca `code`, default d300; a `metar`; a `foreca` JSON file; or a "
+          "`weather` at `position`) around an aircraft at `position` (lat, lon) [deg], as `nephos fly` takes them.")
+      .def("frame", &Flight::frame,
+           "Flies 1/30 s and draws: (height, width, 3) uint8 RGB, or (height, width, 4) straight-alpha RGBA with "
+           "background='transparent'; the pixels of `nephos fly`'s frame_NNNN.png.")
+      .def("change_weather", &Flight::change_weather, py::arg("code"), py::arg("at_s"),
+           "From `at_s` seconds of flight on, the weather is `code`: clouds form and dissipate.")
+      .def_property_readonly("stats", &Flight::stats,
+                             "The last frame's {frame_ms (CPU time around glFinish), sprites, impostor_updates}.")
+      .def_property_readonly("frames_flown", &Flight::frames_flown)
+      .def_property_readonly("clouds", &Flight::clouds, "Sprite clouds in the field.")
+      .def_property_readonly("gl_renderer", &Flight::gl_renderer);
 
   py::class_<WaterModel>(m, "WaterModel",
                          "The two-component lattice-Boltzmann water model (vapour and temperature) of `nephos lbm`.")

@@ -239,6 +239,37 @@ class Lbm(unittest.TestCase):
                 unstable.step(30)
 
 
+class Flight(unittest.TestCase):
+    def test_frames_equal_nephos_fly_bit_for_bit(self):
+        # The same flight, weather change included: every frame the PNG's pixels, and the
+        # sprites drawn those of frames.csv; another seed gives other frames.
+        with tempfile.TemporaryDirectory() as d:
+            cli("--seed", 5, "fly", "--code", "d400", "--frames", 10, "--size", "160x90", "--change", "d100@0.15",
+                "--out", d)
+            rows = (Path(d) / "frames.csv").read_text().splitlines()[1:]
+            flight = nephos.Flight(code="d400", size=(160, 90), seed=5)
+            flight.change_weather("d100", 0.15)
+            for n in range(10):
+                frame = flight.frame()
+                self.assertEqual(frame.shape, (90, 160, 3))
+                self.assertTrue(np.array_equal(frame, read_png_rgb8(Path(d) / f"frame_{n:04d}.png")), n)
+                self.assertEqual(flight.stats["sprites"], int(rows[n].split(",")[2]), n)
+            self.assertEqual(flight.frames_flown, 10)
+            other = nephos.Flight(code="d400", size=(160, 90), seed=6)
+            self.assertFalse(np.array_equal(other.frame(), read_png_rgb8(Path(d) / "frame_0000.png")))
+
+    def test_sources_background_and_errors(self):
+        clear = nephos.Flight(code="d000", size=(64, 36), background="transparent").frame()
+        self.assertEqual(clear.shape, (36, 64, 4))
+        self.assertEqual(int(clear[..., 3].max()), 0)  # no cloud: transparent everywhere
+        self.assertEqual(nephos.Flight(metar="EGLL 051350Z SCT030 BKN045", size=(64, 36)).clouds, 105)
+        for kwargs, needle in ((dict(code="d400", metar="FEW030"), "one of"), (dict(code="d900"), "d900"),
+                               (dict(altitude_ft=1e9), "altitude_ft"), (dict(size=(0, 10)), "size"),
+                               (dict(background="blue"), "background"), (dict(position=(95, 0)), "position")):
+            with self.assertRaisesRegex(ValueError, needle, msg=str(kwargs)):
+                nephos.Flight(**kwargs)
+
+
 if __name__ == "__main__":
     NEPHOS = sys.argv.pop(1)
     unittest.main(verbosity=2)

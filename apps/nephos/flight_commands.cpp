@@ -16,6 +16,7 @@
 #include "nephos/core/progress.hpp"
 
 #include "nephos/realtime/cloud_field.hpp"
+#include "nephos/realtime/flight.hpp"
 #include "nephos/realtime/frame_logic.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
@@ -74,10 +75,9 @@ void add_flight_options(CLI::App* c, FlyOptions& o) {
 std::pair<double, double> checked_flight(const FlyOptions& o) {
   const auto pos = parse_numbers(o.position, 2, "--position", "LAT,LON in degrees");
   require_range(pos[0], -90, 90, "--position", "the latitude [deg]");
-  // From the Dead Sea shore to beyond any aircraft's ceiling.
-  require_range(o.altitude_ft, -1500, 100000, "--altitude", "the altitude [ft]");
-  require_range(o.speed_kt, 0, 5000, "--speed", "the ground speed [kt]");
-  require_range(o.lod_km, 0, 1e4, "--lod-km", "the level-of-detail distance [km] (0: off)");
+  require_range(o.altitude_ft, realtime::min_altitude_ft, realtime::max_altitude_ft, "--altitude", "the altitude [ft]");
+  require_range(o.speed_kt, 0, realtime::max_speed_kt, "--speed", "the ground speed [kt]");
+  require_range(o.lod_km, 0, realtime::max_lod_km, "--lod-km", "the level-of-detail distance [km] (0: off)");
   return {pos[0], pos[1]};
 }
 
@@ -120,7 +120,6 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const UtcTime time = parse_time(o.time, "--time");
   if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
   std::optional<std::pair<realtime::CloudRecipe, double>> change;
-  bool changed = false;
   if (!o.change.empty()) {
     const auto at = o.change.find('@');
     if (at == std::string::npos)
@@ -132,16 +131,19 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const bool transparent = transparent_background(o.background);
   const realtime::CloudRecipe recipe = flight_recipe(o, time, lat, lon);
   spdlog::info("clouds from {}: {} sprite clouds", recipe.source, recipe.sprite_clouds());
-  const double alt_m = o.altitude_ft * 0.3048, speed_m_s = o.speed_kt * 0.514444;
-  realtime::Camera cam{{0, 0, alt_m}, {1, 0, -0.05}, {0, 0, 1}, 60};
-  realtime::CloudField field(recipe, g.seed, cam.position);
+  realtime::FlightParams fp;
+  fp.altitude_m = o.altitude_ft * 0.3048;
+  fp.speed_m_s = o.speed_kt * 0.514444;
+  fp.sort_optimised = !o.no_sort_opt;
+  fp.impostors = !o.no_impostors;
+  realtime::StraightFlight flight(recipe, g.seed, fp);
+  if (change) flight.change_weather_at(change->first, change->second);
   realtime::SpriteRenderer renderer(width, height, g.seed, realtime::gl_api_from_name(o.gl));
   spdlog::info("OpenGL: {} on {}", renderer.gl_version(), renderer.gl_renderer());
   renderer.set_impostor_radius(o.impostor_radius_km * 1000);
   renderer.set_single_sprite_distance(o.lod_km * 1000);
   if (transparent) renderer.set_background(realtime::SpriteRenderer::Background::transparent);
   const realtime::SunLight sun = realtime::sun_light(time, lat, lon);
-  realtime::ResortPolicy policy;
   const fs::path out(o.out);
   ensure_directory(out);
   AtomicFile csv(out / "frames.csv");
@@ -150,16 +152,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   Progress progress("fly", static_cast<std::size_t>(o.frames));
   double total_ms = 0;
   for (int f = 0; f < o.frames; ++f) {
-    cam.position.x += speed_m_s / 30.0;  // 30 frames per second of flight
-    const double t_s = f / 30.0;
-    if (change && !changed && t_s >= change->second) {
-      field.change_weather(change->first, t_s, cam.position);
-      changed = true;
-    }
-    field.advance_time(t_s);
-    field.follow_camera(cam.position, cam.forward);
-    const bool sort = o.no_sort_opt || policy.due(cam.position, cam.forward);
-    const realtime::FrameStats st = renderer.draw(field, cam, sun, sort, !o.no_impostors);
+    const realtime::FrameStats st = flight.next_frame(renderer, sun);
     total_ms += st.milliseconds;
     table << fmt::format("{},{:.3f},{},{}\n", f, st.milliseconds, st.sprites, st.impostor_updates);
     write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
@@ -168,7 +161,7 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   csv.commit(table);
   std::cout << fmt::format(
       "fly: {} frames of {}x{}, {} sprite clouds, mean frame {:.1f} ms (CPU time around glFinish; {})\n", o.frames,
-      width, height, field.clouds().size(), total_ms / o.frames, renderer.gl_renderer());
+      width, height, flight.field().clouds().size(), total_ms / o.frames, renderer.gl_renderer());
   return 0;
 }
 
