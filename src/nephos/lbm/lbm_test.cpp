@@ -423,6 +423,28 @@ TEST(WaterModel, CheckpointErrors) {
   EXPECT_THROW(Grid3::parse("12x12"), ValueError);
   EXPECT_THROW(Grid3::parse("2x12x12"), ValueError);
   EXPECT_EQ(Grid3::parse("128x64x32").ny, 64);
+  // A checkpoint whose header was damaged: a NaN parameter, a silo count that is not an integer,
+  // a negative lattice edge or step are each a FormatError, not a model that runs into NaN.
+  WaterModel m(Grid3{8, 8, 8}, WaterModelParams{});
+  m.save(path);
+  std::string good;
+  {
+    std::ifstream in(path, std::ios::binary);
+    good.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t params_at = 16 + 4 * 8;  // magic, (nx, ny, nz, step), then the parameters
+  auto damaged = [&](std::size_t at, auto value) {
+    std::string bytes = good;
+    std::memcpy(bytes.data() + at, &value, sizeof value);
+    std::ofstream(path, std::ios::binary) << bytes;
+    return path;
+  };
+  EXPECT_THROW(WaterModel::load(damaged(params_at, std::nan(""))), FormatError);       // rho10
+  EXPECT_THROW(WaterModel::load(damaged(params_at + 11 * 8, 2.5)), FormatError);       // silos
+  EXPECT_THROW(WaterModel::load(damaged(16, std::int64_t{-8})), FormatError);          // nx
+  EXPECT_THROW(WaterModel::load(damaged(16 + 3 * 8, std::int64_t{-1})), FormatError);  // step
+  EXPECT_EQ(WaterModel::load(damaged(params_at + 11 * 8, 7.0)).params().silos, 7);     // still whole
+  std::filesystem::remove(path);
 }
 
 }  // namespace nephos::lbm

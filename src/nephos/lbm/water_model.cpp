@@ -822,6 +822,12 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
   std::array<double, param_count> params{};  // CK2 has no storage field: FP32
   is.read(reinterpret_cast<char*>(params.data()),
           static_cast<std::streamsize>((ck2 ? param_count - 1 : param_count) * sizeof(double)));
+  // Every parameter a number and the silo count an integer in range, before any is used (a
+  // NaN would run the model into NaN densities; casting it to int is undefined).
+  if (!is || !std::all_of(params.begin(), params.end(), [](double v) { return std::isfinite(v); }) ||
+      !(params[11] >= 0 && params[11] <= max_silos && params[11] == std::floor(params[11])))
+    throw FormatError("corrupt checkpoint header (a parameter is not a number or out of range)",
+                      {.file = path.string()});
   const WaterModelParams p = params_from_array(params);
   if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
     throw FormatError("corrupt checkpoint header", {.file = path.string()});
