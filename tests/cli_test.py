@@ -304,7 +304,10 @@ class Lbm(unittest.TestCase):
             with tempfile.TemporaryDirectory() as d:
                 p = subprocess.Popen([NEPHOS, "-q", "lbm", "--grid", "64x64x64", "--iterations", "100000",
                                       "--checkpoint-every", "1", "--out", d], stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.PIPE, start_new_session=True)
+                                     stderr=subprocess.PIPE, start_new_session=True,
+                                     # a shell's background job inherits SIGINT ignored, and nephos
+                                     # keeps an ignored signal ignored: start from the default
+                                     preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
                 deadline = time.monotonic() + 60
                 while not any(".tmp" in f for f in os.listdir(d)) and time.monotonic() < deadline:
                     time.sleep(0.002)
