@@ -139,8 +139,7 @@ class Scene {
                        {.key = "size"});
     render::RenderParams rp;
     rp.set_steps(steps, "steps");
-    rp.bands = bands;
-    for (const auto& b : rp.bands) optics::band(b);  // ValueError naming an unknown band
+    rp.set_bands(bands, "bands");
     rp.set_rays_per_pixel(samples, "samples");
     rp.stratified_samples = !sample_grid;
     rp.sample_seed = seed_;

@@ -125,9 +125,17 @@ class Render(unittest.TestCase):
             nephos.Scene(self.weather, texture=100)
         with self.assertRaisesRegex(ValueError, "no_such_type|unknown cloud type"):
             nephos.Scene(self.weather, types=["no_such_type"])
+        # (an empty list crashed the renderer before build_scene refused it)
+        with self.assertRaisesRegex(ValueError, "'types': no cloud type"):
+            nephos.Scene(self.weather, types=[], texture=8)
+        with self.assertRaisesRegex(ValueError, "'cirrus' is listed twice"):
+            nephos.Scene(self.weather, types=["cirrus", "cirrus"], texture=8)
+        with self.assertRaisesRegex(ValueError, "thread count must be 0..1024"):
+            nephos.set_threads(10**6)
         scene = nephos.Scene(self.weather, types=["cirrus"], texture=16)
         for kwargs, needle in ((dict(size=(0, 10)), "size"), (dict(steps=0), "steps"), (dict(samples=3), "samples"),
-                               (dict(bands=["uv"]), "uv"), (dict(sensor="geo:east"), "geo"),
+                               (dict(bands=["uv"]), "'bands': unknown band 'uv'"), (dict(sensor="geo:east"), "geo"),
+                               (dict(bands=["vis", "vis"]), "listed twice"), (dict(bands=[]), "no band"),
                                (dict(time="noon"), "noon")):
             with self.assertRaisesRegex(ValueError, needle, msg=str(kwargs)):
                 scene.render(size=kwargs.pop("size", (8, 8)), **kwargs)
@@ -219,6 +227,9 @@ class Lbm(unittest.TestCase):
             nephos.light(np.zeros((8, 8, 8), np.float32), sun=(135, -5))
         with self.assertRaisesRegex(ValueError, "3D"):
             nephos.percolate(np.zeros((8, 8), np.float32))
+        for rho10 in (0.0, -1.0, float("nan")):  # each once ran, every site dry
+            with self.assertRaisesRegex(ValueError, "'rho10': the condensation density"):
+                nephos.percolate(np.zeros((6, 6, 6), np.float32), rho10=rho10)
         with self.assertRaisesRegex(ValueError, "shape"):
             nephos.raycast(np.zeros((8, 8, 8), np.float32), np.zeros((8, 8, 4), np.float32))
         with self.assertRaisesRegex(ValueError, "dimension"):

@@ -909,6 +909,9 @@ class Usage(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertEqual(run("--threads", "-3", "masks").returncode, 2)
         self.assertEqual(run("--seed", "-1", "masks").returncode, 2)
+        r = run("--threads", "1000000", "masks")  # a million threads: refused before any work
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("0..1024", r.stderr)
 
     def test_a_directory_where_a_file_belongs(self):
         # A directory given as an input file: one line naming it and what was expected, exit 2

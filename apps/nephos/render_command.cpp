@@ -53,8 +53,7 @@ int run_render(const RenderOptions& o, const GlobalOptions& g) {
   std::vector<weather::CloudType> types;
   for (const auto& t : split_distinct(o.types, "--types")) types.push_back(weather::cloud_type_from_name(t));
   render::RenderParams rp;
-  rp.bands = split_distinct(o.bands, "--bands");
-  for (const auto& b : rp.bands) optics::band(b);
+  rp.set_bands(split(o.bands, "--bands"), "--bands");
   rp.set_steps(o.steps, "--steps");
   rp.set_rays_per_pixel(o.samples, "--samples");
   rp.stratified_samples = !o.sample_grid;

@@ -604,6 +604,13 @@ double CloudShell::feature_size_m() const { return p_.fractals[1].length_scale_m
 CloudScene build_scene(const weather::WeatherGrid& weather, const weather::WeatherMasks& masks,
                        const CloudModelParams& params, const std::vector<CloudType>& types, std::uint64_t seed,
                        std::shared_ptr<const FractalTextures> textures) {
+  // At least one type, each once (a scene of no shell has nothing to render; a type twice would
+  // be the same clouds composited over themselves).
+  if (types.empty()) throw ValueError("no cloud type: a scene needs at least one", {.key = "types"});
+  for (std::size_t i = 0; i < types.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (types[i] == types[j])
+        throw ValueError(fmt::format("'{}' is listed twice", weather::name(types[i])), {.key = "types"});
   CloudScene scene;
   using clock = std::chrono::steady_clock;
   auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };

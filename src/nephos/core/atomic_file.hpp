@@ -33,8 +33,8 @@ class AtomicFile {
 
 /// Installs handlers for SIGINT, SIGTERM and SIGHUP that remove every AtomicFile temporary still
 /// being written, then end the process by the same signal; a signal ignored when it is called
-/// (nohup's SIGHUP) stays ignored. For programs (nephos's main()), not
-/// for libraries loaded into another process (the Python module leaves the host's handlers).
+/// (nohup's SIGHUP) stays ignored. For programs (nephos's main()), not for libraries loaded
+/// into another process (the Python module leaves the host's handlers).
 void remove_temporaries_on_interrupt();
 
 /// Creates `dir` (and parents) if needed; throws IoError naming it on failure.

@@ -48,6 +48,16 @@ Percolation::Percolation(const Grid3& coarse, const std::vector<float>& vapour, 
     : coarse_(coarse), p_(params), seed_(seed), y_begin_(y_begin), y_end_(y_end), halo_(halo) {
   const int k = p_.refinement;
   if (k < 1 || k > 16) throw ValueError("refinement K must be 1..16", {.key = "--percolation"});
+  // The thresholds rho10 -/+ eps and the probabilities must be numbers in their ranges (a NaN
+  // threshold would silently make every site dry).
+  if (!(p_.rho10 > 0 && std::isfinite(p_.rho10)))
+    throw ValueError(fmt::format("the condensation density rho10 must be finite and > 0, got {:g}", p_.rho10),
+                     {.key = "rho10"});
+  if (!(p_.epsilon_below >= 0 && p_.epsilon_above >= 0 && std::isfinite(p_.epsilon_below) &&
+        std::isfinite(p_.epsilon_above)))
+    throw ValueError("the thresholds eps1, eps2 must be finite and >= 0", {.key = "epsilon"});
+  if (!(p_.initial_activation >= 0 && p_.initial_activation <= 1 && p_.extinction >= 0 && p_.extinction <= 1))
+    throw ValueError("the activation and extinction probabilities must be in [0, 1]", {.key = "probability"});
   if (!(y_begin >= 0 && y_begin < y_end && y_end <= coarse.ny))
     throw ValueError(
         fmt::format("percolation slab rows {}..{} outside the grid's 0..{}", y_begin, y_end - 1, coarse.ny - 1));

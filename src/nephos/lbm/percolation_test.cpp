@@ -23,6 +23,24 @@ TEST(Percolation, SeedingThresholdsOfSection42) {
   }
 }
 
+TEST(Percolation, ParametersOutsideTheirRangesAreRefused) {
+  // A NaN or non-positive rho10 once seeded every site dry without a word; probabilities
+  // beyond [0, 1] and negative thresholds are as meaningless.
+  const Grid3 g{4, 4, 4};
+  const std::vector<float> v(g.cells(), 1.0f);
+  for (double rho10 : {0.0, -1.0, std::nan("")}) {
+    PercolationParams p;
+    p.rho10 = rho10;
+    EXPECT_THROW(Percolation(g, v, p, 1), ValueError) << rho10;
+  }
+  PercolationParams p;
+  p.extinction = 1.5;
+  EXPECT_THROW(Percolation(g, v, p, 1), ValueError);
+  p = PercolationParams{};
+  p.epsilon_below = -0.1;
+  EXPECT_THROW(Percolation(g, v, p, 1), ValueError);
+}
+
 TEST(Percolation, ActivationSpreadsSidewaysAndUpButNeverDown) {
   // Humid everywhere, one active site at mid-height: at the end every site at or above it is
   // cloud, none below (the asymmetric upward rule).

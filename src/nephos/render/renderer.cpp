@@ -443,10 +443,11 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   }
 
   // The image is rendered in bands of rows whose per-type layers (36 B per pixel and type) fit
-  // in params.layer_budget_bytes (64 MiB), composited band by band: each type's pass still sweeps many rows with its
-  // textures in cache, and the image holds only its outputs (~37 B per pixel for three bands,
-  // not ~180 with every type's layers of the whole image: a 10848^2 full disc in 4 GiB, not 21).
-  // Every pixel's result is what it was: the bands change only the order of independent work.
+  // in params.layer_budget_bytes (64 MiB), composited band by band: each type's pass still
+  // sweeps many rows with its textures in cache, and the image holds only its outputs (~37 B per
+  // pixel for three bands, not ~180 with every type's layers of the whole image: a 10848^2 full
+  // disc in 4 GiB, not 21). Every pixel's result is what it was: the bands change only the
+  // order of independent work.
   const std::size_t row_layer_bytes = static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * sizeof(Layer);
   const int band_rows = static_cast<int>(std::clamp<std::size_t>(
       std::max<std::size_t>(params.layer_budget_bytes / row_layer_bytes, 8 * static_cast<std::size_t>(thread_count())),
@@ -609,6 +610,20 @@ void RenderParams::set_steps(int n, const std::string& key) {
   steps = n;
 }
 
+void RenderParams::set_bands(const std::vector<std::string>& names, const std::string& key) {
+  if (names.empty()) throw ValueError("no band: at least one of vis, nir, lwir", {.key = key});
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    try {
+      optics::band(names[i]);
+    } catch (const ValueError& e) {
+      throw ValueError(e.message(), {.key = key});
+    }
+    for (std::size_t j = 0; j < i; ++j)
+      if (names[i] == names[j]) throw ValueError("'" + names[i] + "' is listed twice", {.key = key});
+  }
+  bands = names;
+}
+
 void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {
   const int k = static_cast<int>(std::lround(std::sqrt(std::max(rays, 0))));
   if (rays < 1 || rays > 256 || k * k != rays)
@@ -629,6 +644,7 @@ double render_memory_bytes(int width, int height, const RenderParams& params) {
 
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                    const RenderParams& params, const weather::WeatherGrid* weather) {
+  if (scene.shells.empty()) throw ValueError("the scene has no cloud shell to render", {.key = "types"});
   const int k = params.samples_per_axis;
   if (k < 1 || k > 16)
     throw ValueError(fmt::format("samples per pixel must be k^2 with k = 1..16, got k = {}", k), {.key = "--samples"});

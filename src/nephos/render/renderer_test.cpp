@@ -192,6 +192,20 @@ TEST(RendererOnGfs, BitIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(c.marched_rays_per_type, d.marched_rays_per_type);
 }
 
+TEST(RendererOnGfs, AtLeastOneCloudTypeEachOnce) {
+  // A scene of no shell, or of one type twice, is refused before any work (an empty scene
+  // crashed the renderer).
+  const auto& r = real();
+  const auto masks = weather::compute_masks(r.w, weather::MaskParams{});
+  EXPECT_THROW(clouds::build_scene(r.w, masks, r.params, {}, 3), ValueError);
+  EXPECT_THROW(clouds::build_scene(r.w, masks, r.params, {weather::CloudType::cirrus, weather::CloudType::cirrus}, 3),
+               ValueError);
+  const clouds::CloudScene empty;
+  EXPECT_THROW(render(empty, Sensor::geostationary(-75.2, 8, 8),
+                      earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15)), RenderParams{}, &r.w),
+               ValueError);
+}
+
 TEST(RendererOnGfs, BandsOfRowsChangeNothingButMemory) {
   // The image in one band of rows, and in bands of 8 rows (one thread) or 16 (two): every
   // output identical, bit for bit; also with 4 rays per pixel.
