@@ -446,8 +446,8 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   // in params.layer_budget_bytes (64 MiB), composited band by band: each type's pass still
   // sweeps many rows with its textures in cache, and the image holds only its outputs (~37 B per
   // pixel for three bands, not ~180 with every type's layers of the whole image: a 10848^2 full
-  // disc in 4 GiB, not 21). Every pixel's result is what it was: the bands change only the
-  // order of independent work.
+  // disc in 4 GiB, not 21). No pixel's result depends on the band size: the bands change only
+  // the order of independent work (tested bit for bit).
   const std::size_t row_layer_bytes = static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * sizeof(Layer);
   const int band_rows = static_cast<int>(std::clamp<std::size_t>(
       std::max<std::size_t>(params.layer_budget_bytes / row_layer_bytes, 8 * static_cast<std::size_t>(thread_count())),
