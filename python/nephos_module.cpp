@@ -324,6 +324,7 @@ class Flight {
     renderer_->set_impostor_radius(impostor_radius_km * 1000);
     renderer_->set_single_sprite_distance(lod_km * 1000);
     if (transparent_) renderer_->set_background(realtime::SpriteRenderer::Background::transparent);
+    renderer_->release_current();  // any Python thread may draw the first frame
   }
 
   void change_weather(const std::string& code, double at_s) {
@@ -335,7 +336,18 @@ class Flight {
     std::vector<std::uint8_t> rgba;
     {
       py::gil_scoped_release release;
-      renderer_->make_current();  // several flights may live in one process
+      // The context is current only while this thread draws (also when drawing throws):
+      // flights may be drawn from any thread, several at once, each by one thread at a time.
+      struct Current {
+        realtime::SpriteRenderer& r;
+        explicit Current(realtime::SpriteRenderer& renderer) : r(renderer) { r.make_current(); }
+        ~Current() {
+          try {
+            r.release_current();
+          } catch (const Error&) {  // nothing to do: the next make_current() reports EGL's state
+          }
+        }
+      } current(*renderer_);
       last_ = flight_->next_frame(*renderer_, sun_);
       rgba = renderer_->read_pixels();
     }

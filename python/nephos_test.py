@@ -269,6 +269,29 @@ class Flight(unittest.TestCase):
             other = nephos.Flight(code="d400", size=(160, 90), seed=6)
             self.assertFalse(np.array_equal(other.frame(), read_png_rgb8(Path(d) / "frame_0000.png")))
 
+    def test_flights_in_threads(self):
+        # Two flights drawn at once from two threads, and a flight handed from thread to thread
+        # (EGL allows a context current in one thread at a time): the frames of one thread alone.
+        import threading
+        def frames(flight, n):
+            return [flight.frame() for _ in range(n)]
+        ref = {s: frames(nephos.Flight(code="d400", size=(64, 36), seed=s), 6) for s in (1, 2)}
+        flights = {s: nephos.Flight(code="d400", size=(64, 36), seed=s) for s in (1, 2)}
+        got = {}
+        threads = [threading.Thread(target=lambda s=s: got.__setitem__(s, frames(flights[s], 3))) for s in (1, 2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        for s in (1, 2):  # then the rest of each flight, each frame from a new thread
+            for _ in range(3):
+                t = threading.Thread(target=lambda s=s: got[s].append(flights[s].frame()))
+                t.start()
+                t.join()
+            self.assertEqual(len(got[s]), 6)
+            for n in range(6):
+                self.assertTrue(np.array_equal(got[s][n], ref[s][n]), (s, n))
+
     def test_sources_background_and_errors(self):
         clear = nephos.Flight(code="d000", size=(64, 36), background="transparent").frame()
         self.assertEqual(clear.shape, (36, 64, 4))

@@ -437,6 +437,12 @@ void SpriteRenderer::make_current() {
     throw IoError("EGL: eglMakeCurrent failed for a sprite renderer's context");
 }
 
+void SpriteRenderer::release_current() {
+  auto& m = *impl_;
+  if (m.dpy != EGL_NO_DISPLAY && !eglMakeCurrent(m.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT))
+    throw IoError("EGL: eglMakeCurrent failed to release a sprite renderer's context");
+}
+
 void SpriteRenderer::init_gl(std::uint64_t seed) {
   auto& m = *impl_;
   // The frame is one renderbuffer: its side is bounded by the implementation (16384 on

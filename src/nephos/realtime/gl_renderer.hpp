@@ -83,6 +83,10 @@ class SpriteRenderer {
   /// turns, each draw preceded by its renderer's make_current() (a no-op for a window's
   /// context, which the caller manages). Throws IoError if EGL refuses.
   void make_current();
+  /// Detaches this renderer's context from the calling thread (a no-op for a window's), so that
+  /// another thread may make it current and draw next: EGL lets a context be current in one
+  /// thread at a time. Throws IoError if EGL refuses.
+  void release_current();
   SpriteRenderer(const SpriteRenderer&) = delete;
   SpriteRenderer& operator=(const SpriteRenderer&) = delete;
 
