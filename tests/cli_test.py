@@ -240,6 +240,14 @@ class Render(unittest.TestCase):
                 self.assertTrue(np.array_equal(frac[pattern] * 4, np.round(frac[pattern] * 4)))  # quarters
             self.assertFalse(np.array_equal(frac["stratified"], frac["grid"]))
 
+    def test_seed_recorded_exactly(self):
+        # The largest seed, 2^64 - 1, which a double attribute would round to 2^64.
+        import netCDF4
+        with tempfile.TemporaryDirectory() as d:
+            r = run("--seed", "18446744073709551615", "render", "--size", "8x8", "--texture", "8", "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertEqual(int(netCDF4.Dataset(Path(d) / "render.nc").getncattr("seed")), 2**64 - 1)
+
     def test_bad_input_writes_nothing(self):
         with tempfile.TemporaryDirectory() as d:
             out = Path(d) / "out"

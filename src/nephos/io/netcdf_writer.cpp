@@ -72,6 +72,12 @@ void NetcdfWriter::put_attribute_i8(int var, const std::string& name, const std:
         "cannot write attribute " + name);
 }
 
+void NetcdfWriter::put_attribute_u64(int var, const std::string& name, std::uint64_t value) {
+  const unsigned long long v = value;
+  check(nc_put_att_ulonglong(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_UINT64, 1, &v),
+        "cannot write attribute " + name);
+}
+
 void NetcdfWriter::end_definitions() { check(nc_enddef(ncid_), "cannot leave define mode"); }
 void NetcdfWriter::write(int var, const float* data) { check(nc_put_var_float(ncid_, var, data), "cannot write data"); }
 void NetcdfWriter::write(int var, const double* data) {

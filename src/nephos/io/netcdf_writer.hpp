@@ -33,6 +33,9 @@ class NetcdfWriter {
   void put_attribute(int var, const std::string& name, const std::vector<double>& values);
   void put_attribute_f32(int var, const std::string& name, const std::vector<float>& values);
   void put_attribute_i8(int var, const std::string& name, const std::vector<std::int8_t>& values);
+  /// An unsigned 64-bit integer (NetCDF-4's NC_UINT64): exact where a double would round (seeds
+  /// beyond 2^53).
+  void put_attribute_u64(int var, const std::string& name, std::uint64_t value);
   /// Leaves define mode; then write data.
   void end_definitions();
   void write(int var, const float* data);

@@ -71,7 +71,7 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
   nc.put_attribute(io::NetcdfWriter::global, "time", meta.time_iso);
   nc.put_attribute(io::NetcdfWriter::global, "subsolar_point_deg",
                    std::vector<double>{meta.sun_subsolar_lat_deg, meta.sun_subsolar_lon_deg});
-  nc.put_attribute(io::NetcdfWriter::global, "seed", static_cast<double>(meta.seed));
+  nc.put_attribute_u64(io::NetcdfWriter::global, "seed", meta.seed);  // exact: a double rounds beyond 2^53
   nc.put_attribute(io::NetcdfWriter::global, "ray_marching_steps", static_cast<double>(meta.steps));
   nc.put_attribute(io::NetcdfWriter::global, "texture_size", static_cast<double>(meta.texture_size));
   nc.put_attribute(io::NetcdfWriter::global, "rays_per_pixel", static_cast<double>(meta.rays_per_pixel));
