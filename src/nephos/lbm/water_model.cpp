@@ -784,15 +784,18 @@ std::size_t checkpoint_value_index(int c, int i, std::size_t cells, std::size_t 
   return (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * cells + cell;
 }
 
+// The error when a checkpoint cannot be opened for writing, with the system's reason.
+IoError cannot_open_for_writing(const std::filesystem::path& file) {
+  return IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno), {.file = file.string()});
+}
+
 // direction(c, i, out) fills out[cell] with population i of component c, for every cell.
 void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h,
                       const std::function<void(int, int, float*)>& direction) {
   AtomicFile out(path);
   {
     std::ofstream os(out.temp_path(), std::ios::binary);
-    if (!os)
-      throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno),
-                    {.file = path.string()});
+    if (!os) throw cannot_open_for_writing(path);
     write_checkpoint_header(os, h);
     std::vector<float> values(h.grid.cells());
     for (int c = 0; c < 2; ++c)
@@ -822,23 +825,24 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
   std::array<double, param_count> params{};  // CK2 has no storage field: FP32
   is.read(reinterpret_cast<char*>(params.data()),
           static_cast<std::streamsize>((ck2 ? param_count - 1 : param_count) * sizeof(double)));
+  if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
+    throw FormatError("corrupt checkpoint header", {.file = path.string()});
   // Every parameter a number and the silo count an integer in range, before any is used (a
   // NaN would run the model into NaN densities; casting it to int is undefined).
-  if (!is || !std::all_of(params.begin(), params.end(), [](double v) { return std::isfinite(v); }) ||
+  if (!std::all_of(params.begin(), params.end(), [](double v) { return std::isfinite(v); }) ||
       !(params[11] >= 0 && params[11] <= max_silos && params[11] == std::floor(params[11])))
     throw FormatError("corrupt checkpoint header (a parameter is not a number or out of range)",
                       {.file = path.string()});
-  const WaterModelParams p = params_from_array(params);
-  if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
-    throw FormatError("corrupt checkpoint header", {.file = path.string()});
-  return {Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, hdr[3], p};
+  return {Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, hdr[3],
+          params_from_array(params)};
 }
 
 }  // namespace
 
 void WaterModel::save(const std::filesystem::path& path) const {
   if (halo_ != 0)
-    throw ValueError("a slab cannot save itself: gather pack_owned() of every slab and call save_gathered()");
+    throw ValueError(
+        "a slab cannot save itself: create_checkpoint() the whole lattice's file, then write_owned() every slab");
   const std::size_t n = g_.cells(), stride = g_.direction_stride();
   write_checkpoint(path, {g_, step_, p_},
                    [&](int c, int i, float* out) { f_[c].read(static_cast<std::size_t>(i) * stride, n, out); });
@@ -948,9 +952,7 @@ void WaterModel::create_checkpoint(const std::filesystem::path& file, const Grid
                                    const WaterModelParams& params, long step) {
   {
     std::ofstream os(file, std::ios::binary | std::ios::trunc);
-    if (!os)
-      throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno),
-                    {.file = file.string()});
+    if (!os) throw cannot_open_for_writing(file);
     write_checkpoint_header(os, {global, step, params});
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
   }
@@ -963,8 +965,7 @@ void WaterModel::write_owned(const std::filesystem::path& file) const {
   // Each (component, direction, z) holds this slab's rows as one run of own x nx values in the
   // whole lattice's order (cell = (z ny + y) nx + x): 2 q nz positioned writes.
   std::fstream os(file, std::ios::binary | std::ios::in | std::ios::out);  // no truncation
-  if (!os)
-    throw IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno), {.file = file.string()});
+  if (!os) throw cannot_open_for_writing(file);
   const std::size_t N = global_.cells(), stride = g_.direction_stride();
   const std::size_t run = static_cast<std::size_t>(owned_end() - owned_begin()) * static_cast<std::size_t>(g_.nx);
   std::vector<float> values(run);
