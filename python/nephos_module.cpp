@@ -28,7 +28,6 @@
 #include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
-#include "nephos/optics/optics.hpp"
 #include "nephos/realtime/flight.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
