@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <string>
 
 #include "nephos/core/error.hpp"
 #include "nephos/realtime/weather_input.hpp"
@@ -566,18 +567,25 @@ TEST(SpriteRendererGl, TrimmedSpritesMatchWholeQuads) {
   // Drawing each sprite over its texture's octagon instead of the whole quad leaves out only
   // fragments whose texture sample is transparent (blending (0, 0, 0, 0) leaves the frame
   // unchanged), and the attributes interpolate the same affine functions over either triangle
-  // set: the frames differ by float rounding only, at most one level in a few channels. A
-  // cloudy scene from inside the layer and from above, with and without the impostor ring.
+  // set: the frames differ by rounding only. llvmpipe interpolates and filters in float: at
+  // most one level in a few channels. A GPU filters with fixed-point weights (8 bits of
+  // sub-texel position on NVIDIA), so the interpolated coordinate's rounding, which differs
+  // between the two triangle sets, can move each bilinear weight by one step (1/256 of a texel
+  // difference: at most one level per fetch) in each of the sprites blended over a pixel; up to
+  // 4 levels, in up to 2 % of the channels (an NVIDIA H200 gave 3 levels in 0.65 %). A cloudy
+  // scene from inside the layer and from above, with and without the impostor ring.
   const CloudField field(recipe_from_code(parse_weather_code("d400")), 5, {0, 0, 2400});
   const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
   SpriteRenderer renderer(192, 108, 5);
+  const bool llvmpipe = renderer.gl_renderer().find("llvmpipe") != std::string::npos;
+  const int max_levels = llvmpipe ? 1 : 4;
   for (const double z : {2400.0, 4500.0})
     for (const bool impostors : {false, true}) {
       const Camera cam{{0, 0, z}, {1, 0.2, z > 3000 ? -0.3 : -0.05}, {0, 0, 1}, 60};
       const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_trim_sprites, field, cam, sun, impostors);
       const FrameDiff d = frame_diff(frames[0], frames[1], 0);  // over: channels that differ at all
-      EXPECT_LE(d.max, 1) << "camera at " << z << " m, impostors " << impostors;
-      EXPECT_LT(d.over, frames[0].size() / 200) << "camera at " << z << " m, impostors " << impostors;
+      EXPECT_LE(d.max, max_levels) << "camera at " << z << " m, impostors " << impostors;
+      EXPECT_LT(d.over, frames[0].size() / (llvmpipe ? 200 : 50)) << "camera at " << z << " m, impostors " << impostors;
       EXPECT_GT(d.from_sky, 20) << "clouds are drawn (camera at " << z << " m)";
     }
 }
