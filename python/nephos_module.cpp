@@ -514,7 +514,8 @@ PYBIND11_MODULE(nephos, m) {
       .def("render", &Scene::render, py::arg("sensor") = "geo:-75.2", py::arg("size") = std::make_pair(1000, 1000),
            py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
            py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
-           "Renders the scene as `nephos render` does: a dict of (height, width) arrays radiance_<band> "
+           "Renders the scene as `nephos render` does (bands: any of blue, vis, nir, swir16, swir22, mwir, lwir, "
+           "lwir11, lwir12): a dict of (height, width) arrays radiance_<band> "
            "[W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "

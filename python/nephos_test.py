@@ -72,16 +72,17 @@ class Render(unittest.TestCase):
     def test_render_equals_the_cli_bit_for_bit(self):
         # The same scene and view through both doors, with the wind advanced 3 h as
         # --advance-hours does: every array of render.nc, value for value.
-        args = dict(sensor="leo:45,-30,700,30", size=(96, 80), bands=["vis", "lwir"], steps=15)
+        args = dict(sensor="leo:45,-30,700,30", size=(96, 80), bands=["vis", "lwir", "swir16", "lwir12"], steps=15)
         scene = nephos.Scene(self.weather, types=["low_stratus", "cirrus"], texture=64, seed=7)
         scene.advance(3.0)
         img = scene.render(**args)
         with tempfile.TemporaryDirectory() as d:
             cli("--seed", 7, "render", "--weather", SAMPLE, "--sensor", args["sensor"], "--size", "96x80",
-                "--types", "low_stratus,cirrus", "--texture", 64, "--bands", "vis,lwir", "--steps", 15,
+                "--types", "low_stratus,cirrus", "--texture", 64, "--bands", "vis,lwir,swir16,lwir12", "--steps", 15,
                 "--advance-hours", 3, "--out", d)
             ref = netcdf(Path(d) / "render.nc")
-            for name in ("radiance_vis", "radiance_lwir", "brightness_temperature_lwir", "cloud_top_altitude",
+            for name in ("radiance_vis", "radiance_lwir", "brightness_temperature_lwir", "radiance_swir16",
+                         "radiance_lwir12", "brightness_temperature_lwir12", "cloud_top_altitude",
                          "cloud_optical_depth", "cloud_fraction", "cloud_type", "latitude", "longitude"):
                 self.assertEqual(img[name].shape, (80, 96), name)
                 self.assertTrue(np.array_equal(img[name], ref[name][:], equal_nan=name != "cloud_type"), name)

@@ -240,6 +240,34 @@ class Render(unittest.TestCase):
                 self.assertTrue(np.array_equal(frac[pattern] * 4, np.round(frac[pattern] * 4)))  # quarters
             self.assertFalse(np.array_equal(frac["stratified"], frac["grid"]))
 
+    def test_more_abi_bands(self):
+        # Six of the nine bands at once: a radiance for each, a brightness temperature for the
+        # thermal ones only, a preview each. By day the 3.9 um band adds reflected sunlight to a
+        # cloud's emission, so sunlit clouds are warmer there than at 11.2 um (the daytime
+        # BT(3.9) - BT(11) > 0 of water clouds that fog and low-cloud products use).
+        import netCDF4
+        import numpy as np
+        bands = ["blue", "swir16", "swir22", "mwir", "lwir11", "lwir12"]
+        with tempfile.TemporaryDirectory() as d:
+            r = run("render", "--size", "64x64", "--texture", "64", "--bands", ",".join(bands), "--time",
+                    "2011-01-15T16:30:00Z", "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            ds = netCDF4.Dataset(Path(d) / "render.nc")
+            for b in bands:
+                self.assertIn("radiance_" + b, ds.variables)
+                self.assertEqual("brightness_temperature_" + b in ds.variables, b in ("mwir", "lwir11", "lwir12"), b)
+                self.assertTrue((Path(d) / (b + ".png")).is_file(), b)
+            self.assertNotIn("radiance_vis", ds.variables)
+            cloudy = ~np.ma.getmaskarray(ds["cloud_top_altitude"][:]) & np.isfinite(np.ma.filled(ds["cloud_top_altitude"][:], np.nan))
+            blue = np.ma.filled(ds["radiance_blue"][:], np.nan)
+            lit = cloudy & (blue > 50)  # sunlit clouds
+            self.assertGreater(lit.sum(), 20)
+            d39 = np.ma.filled(ds["brightness_temperature_mwir"][:], np.nan) - np.ma.filled(
+                ds["brightness_temperature_lwir11"][:], np.nan)
+            self.assertGreater(np.nanmedian(d39[lit]), 5.0)
+            for b in bands:
+                self.assertTrue(np.all(np.isfinite(np.ma.filled(ds["radiance_" + b][:], np.nan)[cloudy])), b)
+
     def test_seed_recorded_exactly(self):
         # The largest seed, 2^64 - 1, which a double attribute would round to 2^64.
         import netCDF4

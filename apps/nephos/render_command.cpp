@@ -1,5 +1,5 @@
 // nephos render: the 3D fractal clouds of the weather, ray-marched from a GEO, LEO or any
-// camera, in the visible, near-IR and long-wave IR bands (docs/render.md).
+// camera, in the visible, near-IR and thermal-IR bands of GOES-16 ABI (docs/render.md).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -17,6 +17,7 @@
 
 #include "nephos/clouds/cloud_model.hpp"
 #include "nephos/earth/sun.hpp"
+#include "nephos/optics/optics.hpp"
 #include "nephos/render/outputs.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
@@ -133,7 +134,10 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   rend->add_option("--size", o->size, "Focal-plane array WIDTHxHEIGHT [pixels]")->capture_default_str();
   rend->add_option("--types", o->types, "Cloud types, comma-separated")->capture_default_str();
-  rend->add_option("--bands", o->bands, "Bands: vis, nir, lwir")->capture_default_str();
+  rend->add_option(
+          "--bands", o->bands,
+          "Bands, comma-separated: " + optics::band_names() + " (GOES-16 ABI bands 2, 3, 13, 1, 5, 6, 7, 14, 15)")
+      ->capture_default_str();
   rend->add_option("--steps", o->steps, "Ray-marching steps per shell")->capture_default_str();
   rend->add_option("--samples", o->samples,
                    "Rays per pixel, a square k^2 (1, 4, 9, ... 256): the mean of one ray per sub-pixel of a k x k "

@@ -31,23 +31,41 @@ double solar_blackbody_irradiance(double lo_um, double hi_um) {
 }  // namespace
 
 const std::vector<Band>& bands() {
-  // Solar irradiance of ABI bands 2 and 3: the band-equivalent values "esun" that GOES-16 L1b
-  // files carry (1631.3351 and 957.0699 W m^-2 um^-1). Band 13 has no published esun; the Sun
-  // as a blackbody gives ~0.25 W m^-2 um^-1, negligible beside the ~8 W m^-2 sr^-1 um^-1 of
-  // thermal emission but kept for completeness.
+  // Solar irradiance of the reflective ABI bands: the band-equivalent values "esun" that GOES-16
+  // L1b files carry (band 1: 2017.1648, 2: 1631.3351, 3: 957.0699, 5: 242.54037, 6: 76.8999 W
+  // m^-2 um^-1). The emissive bands have no published esun: the Sun as a 5772 K blackbody,
+  // which matters in band 7 (3.9 um: ~10 W m^-2 um^-1, reflected sunlight of the same order as
+  // a cloud's emission by day) and is negligible beside the thermal emission in bands 13-15
+  // (0.13-0.25 W m^-2 um^-1: under 0.1 W m^-2 sr^-1 um^-1 reflected, against ~8 emitted), kept
+  // for completeness. Band edges: the
+  // ABI's nominal half-power bandwidths.
   static const std::vector<Band> b{
       {"vis", "GOES-16 ABI band 2 (red)", 0.64, 0.59, 0.69, 1631.3351, false},
       {"nir", "GOES-16 ABI band 3 (veggie)", 0.865, 0.846, 0.885, 957.0699, false},
       {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 10.35, 10.1, 10.6,
        solar_blackbody_irradiance(10.1, 10.6), true},
+      {"blue", "GOES-16 ABI band 1 (blue)", 0.47, 0.45, 0.49, 2017.1648, false},
+      {"swir16", "GOES-16 ABI band 5 (snow/ice)", 1.61, 1.58, 1.64, 242.54037, false},
+      {"swir22", "GOES-16 ABI band 6 (cloud particle size)", 2.24, 2.225, 2.275, 76.8999, false},
+      {"mwir", "GOES-16 ABI band 7 (shortwave window)", 3.9, 3.8, 4.0, solar_blackbody_irradiance(3.8, 4.0), true},
+      {"lwir11", "GOES-16 ABI band 14 (long-wave window)", 11.2, 10.8, 11.6, solar_blackbody_irradiance(10.8, 11.6),
+       true},
+      {"lwir12", "GOES-16 ABI band 15 (dirty long-wave window)", 12.3, 11.8, 12.8,
+       solar_blackbody_irradiance(11.8, 12.8), true},
   };
   return b;
+}
+
+std::string band_names() {
+  std::string s;
+  for (const auto& b : bands()) s += (s.empty() ? "" : ", ") + b.name;
+  return s;
 }
 
 const Band& band(const std::string& name) {
   for (const auto& b : bands())
     if (b.name == name) return b;
-  throw ValueError("unknown band '" + name + "' (known: vis, nir, lwir)", {.key = "--bands"});
+  throw ValueError("unknown band '" + name + "' (known: " + band_names() + ")", {.key = "--bands"});
 }
 
 double band_planck(const Band& b, double t_k) {
@@ -112,18 +130,7 @@ SlabResult two_stream_fit(double tau, double omega) {
 
 double beer_transmittance(double tau) { return std::exp(-tau); }
 
-double imaginary_index(Phase phase, const Band& b) {
-  // Imaginary part of the refractive index at the band centre.
-  // Water: Hale & Querry (1973), Appl. Opt. 12, 555: 1.6e-8 (0.65 um), 2.9e-7 (0.85 um),
-  //        5.1e-2 (10.3 um). Ice: Warren & Brandt (2008), JGR 113, D14220: 1.3e-8 (0.64 um),
-  //        2.4e-7 (0.865 um), 6.0e-2 (10.35 um). Read from the published tables at the nearest
-  //        tabulated wavelength; ~20 % uncertainty at our precision needs, see docs/render.md.
-  const bool ice = phase == Phase::ice;
-  if (b.name == "vis") return ice ? 1.3e-8 : 1.6e-8;
-  if (b.name == "nir") return ice ? 2.4e-7 : 2.9e-7;
-  if (b.name == "lwir") return ice ? 6.0e-2 : 5.1e-2;
-  throw ValueError("no refractive index for band '" + b.name + "'");
-}
+double imaginary_index(Phase phase, const Band& b) { return refractive_index(phase, b.centre_um).k; }
 
 OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_e_um, const Band& b) {
   if (!(water_content_g_m3 >= 0) || !(r_e_um > 0))

@@ -2,6 +2,7 @@
 // Radiometry and cloud optics for the global renderer (seed 000, section 2.3):
 // Planck radiance and its inverse, sensor bands, the 1976 U.S. Standard Atmosphere temperature,
 // the two-stream slab relations (2a)-(4b), Beer's law, and cloud optical properties.
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -25,9 +26,14 @@ struct Band {
   double solar_irradiance;         ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
   bool thermal;                    ///< thermal emission matters (report brightness temperature)
 };
-/// The built-in bands: vis (ABI 2, 0.64 um), nir (ABI 3, 0.86 um), lwir (ABI 13, 10.3 um).
+/// The built-in bands, GOES-16 ABI's window bands: vis (ABI 2, 0.64 um), nir (ABI 3, 0.865
+/// um), lwir (ABI 13, 10.35 um), blue (ABI 1, 0.47 um), swir16 (ABI 5, 1.61 um), swir22 (ABI 6,
+/// 2.24 um), mwir (ABI 7, 3.9 um), lwir11 (ABI 14, 11.2 um), lwir12 (ABI 15, 12.3 um).
 const std::vector<Band>& bands();
 const Band& band(const std::string& name);  ///< ValueError listing the known names
+std::string band_names();                   ///< "vis, nir, lwir, blue, ..."
+/// The most bands one render takes: every built-in band once.
+inline constexpr std::size_t max_band_count = 9;
 
 /// Band-mean Planck radiance [W m^-2 sr^-1 um^-1]: (1 / (hi - lo)) * integral of B over the band.
 double band_planck(const Band& b, double temperature_k);
@@ -59,6 +65,14 @@ double beer_transmittance(double tau);
 
 // ---- Cloud optical properties -------------------------------------------------------------
 enum class Phase { water, ice };
+/// Complex refractive index m = n + i k.
+struct RefractiveIndex {
+  double n, k;
+};
+/// Liquid water (Hale & Querry 1973, 25 C) or ice (Warren & Brandt 2008, -7 C) at a vacuum
+/// wavelength of 0.4-13.5 um (ValueError outside): the published table's value at a tabulated
+/// wavelength, else n interpolated linearly and log k linearly between the neighbouring rows.
+RefractiveIndex refractive_index(Phase phase, double wavelength_um);
 struct OpticalProperties {
   double extinction_per_m;  ///< B_ext [1/m]
   double single_scattering_albedo;
@@ -69,7 +83,7 @@ struct OpticalProperties {
 /// imaginary refractive index (water: Hale & Querry 1973; ice: Warren & Brandt 2008).
 /// water_content in g/m^3, effective radius in um.
 OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double effective_radius_um, const Band& band);
-/// Imaginary refractive index used for a band.
+/// Imaginary refractive index used for a band: refractive_index() at its centre.
 double imaginary_index(Phase phase, const Band& band);
 
 }  // namespace nephos::optics

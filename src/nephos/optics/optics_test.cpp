@@ -135,4 +135,68 @@ TEST(CloudOptics, GeometricOpticsExtinction) {
   EXPECT_THROW(cloud_optics(Phase::ice, 0.01, 0.0, band("vis")), ValueError);
 }
 
+TEST(RefractiveIndex, PublishedTables) {
+  // Values printed in Hale & Querry (1973), Table 1 (liquid water, 25 C), and Warren & Brandt
+  // (2008), whose compilation tabulates these wavelengths (ice, -7 C): returned exactly at a
+  // tabulated wavelength (only the table's own rounding in the source, so compared to 1e-12
+  // relative).
+  struct Case {
+    Phase phase;
+    double wavelength_um, n, k;
+  };
+  for (const Case c : {Case{Phase::water, 0.65, 1.331, 1.64e-8}, Case{Phase::water, 1.6, 1.317, 8.55e-5},
+                       Case{Phase::water, 3.9, 1.357, 3.80e-3}, Case{Phase::water, 11.0, 1.153, 0.0968},
+                       Case{Phase::water, 12.0, 1.111, 0.199}, Case{Phase::ice, 0.64, 1.3083, 1.22e-8},
+                       Case{Phase::ice, 1.613, 1.2890, 2.659e-4}, Case{Phase::ice, 2.24, 1.2591, 2.037e-4},
+                       Case{Phase::ice, 11.0, 1.0886, 0.248}, Case{Phase::ice, 12.2, 1.3194, 0.422}}) {
+    const RefractiveIndex m = refractive_index(c.phase, c.wavelength_um);
+    EXPECT_NEAR(m.n, c.n, 1e-12 * c.n) << c.wavelength_um;
+    EXPECT_NEAR(m.k, c.k, 1e-12 * c.k) << c.wavelength_um;
+  }
+  // Between rows: n linear, log k linear (midway between 10.0 and 10.5 um for water: the mean
+  // of n and the geometric mean of k; tolerance: double rounding).
+  const RefractiveIndex mid = refractive_index(Phase::water, 10.25);
+  EXPECT_NEAR(mid.n, (1.218 + 1.185) / 2, 1e-12);
+  EXPECT_NEAR(mid.k, std::sqrt(0.0508 * 0.0662), 1e-14);
+  EXPECT_THROW(refractive_index(Phase::water, 0.3), ValueError);
+  EXPECT_THROW(refractive_index(Phase::ice, 14.0), ValueError);
+  EXPECT_THROW(refractive_index(Phase::ice, std::nan("")), ValueError);
+}
+
+TEST(Bands, EveryBandHasOpticsAndARadianceScale) {
+  EXPECT_EQ(bands().size(), max_band_count);
+  for (const Band& b : bands()) {
+    EXPECT_LT(b.lo_um, b.centre_um) << b.name;
+    EXPECT_LT(b.centre_um, b.hi_um) << b.name;
+    EXPECT_GT(b.solar_irradiance, 0) << b.name;
+    for (Phase p : {Phase::water, Phase::ice}) EXPECT_GT(imaginary_index(p, b), 0) << b.name;
+    // Thermal (brightness temperature reported) where a 300 K surface's emission is more than
+    // 1 % of what a white Lambertian surface reflects under an overhead Sun (E / pi): 2e-5 at
+    // 2.24 um, 0.2 at 3.9 um.
+    EXPECT_EQ(b.thermal, band_planck(b, 300.0) > 0.01 * b.solar_irradiance / M_PI) << b.name;
+  }
+  EXPECT_THROW(band("swir"), ValueError);
+}
+
+TEST(CloudOptics, ShortwaveInfraredSeesPhaseAndDropletSize) {
+  // The principles behind ABI bands 5 and 6 (and MODIS's phase and effective-radius retrievals,
+  // Nakajima & King 1990): at 1.61 and 2.24 um water and ice absorb (k ~ 1e-4), so a thick
+  // cloud's reflectance falls as its particles grow and an ice cloud (k three times water's at
+  // 1.61 um) reflects less than a water cloud of the same size and optical depth; at 0.64 um
+  // neither matters (reflectance within 0.1 % for r_e 5-30 um at tau 30).
+  auto reflectance = [](Phase p, double r_e, const char* b) {
+    const OpticalProperties o = cloud_optics(p, 0.3, r_e, band(b));
+    return two_stream_slab(30.0, o.single_scattering_albedo).reflectance;
+  };
+  for (const char* b : {"swir16", "swir22"}) {
+    EXPECT_GT(reflectance(Phase::water, 5, b), reflectance(Phase::water, 10, b)) << b;
+    EXPECT_GT(reflectance(Phase::water, 10, b), reflectance(Phase::water, 30, b)) << b;
+  }
+  EXPECT_LT(reflectance(Phase::ice, 20, "swir16"), reflectance(Phase::water, 20, "swir16"));
+  EXPECT_NEAR(reflectance(Phase::water, 5, "vis") / reflectance(Phase::water, 30, "vis"), 1.0, 1e-3);
+  // Liquid water absorbs more at 2.24 um than at 1.61 um (Hale & Querry: 2.9e-4 at 2.2 um,
+  // 8.6e-5 at 1.6 um).
+  EXPECT_LT(reflectance(Phase::water, 10, "swir22"), reflectance(Phase::water, 10, "swir16"));
+}
+
 }  // namespace nephos::optics

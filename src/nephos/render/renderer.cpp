@@ -65,11 +65,15 @@ struct PlanckTable {
   }
 };
 
-struct Layer {  // one cloud type's contribution to one pixel
+struct Layer {  // one cloud type's contribution to one pixel; its per-band values apart (LayerBands)
   float t = std::numeric_limits<float>::infinity();
   float altitude = 0, tau_vis = 0;
-  std::array<float, 3> radiance{}, transmittance{1, 1, 1};
 };
+// A layer's radiance [W m^-2 sr^-1 um^-1] and direct transmittance in each of a render's nb
+// bands: radiance[0..nb) then transmittance[0..nb), 8 nb bytes per layer (as many bands as
+// asked for, up to optics::max_band_count). Read only where the layer's t is finite, so never
+// reset.
+constexpr std::size_t layer_band_floats(std::size_t nb) { return 2 * nb; }
 
 }  // namespace
 
@@ -370,7 +374,8 @@ struct BandTables {
   std::vector<const optics::Band*> bands;
   std::vector<const PlanckTable*> planck;
   explicit BandTables(const std::vector<std::string>& names) {
-    if (names.size() > 3) throw ValueError("at most 3 bands per render", {.key = "--bands"});
+    if (names.size() > optics::max_band_count)
+      throw ValueError(fmt::format("at most {} bands per render", optics::max_band_count), {.key = "--bands"});
     for (const auto& name : names) {
       bands.push_back(&optics::band(name));
       planck.push_back(&planck_table(*bands.back()));
@@ -442,17 +447,21 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
     vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
   }
 
-  // The image is rendered in bands of rows whose per-type layers (36 B per pixel and type) fit
-  // in params.layer_budget_bytes (64 MiB), composited band by band: each type's pass still
-  // sweeps many rows with its textures in cache, and the image holds only its outputs (~37 B per
-  // pixel for three bands, not ~180 with every type's layers of the whole image: a 10848^2 full
-  // disc in 4 GiB, not 21). No pixel's result depends on the band size: the bands change only
-  // the order of independent work (tested bit for bit).
-  const std::size_t row_layer_bytes = static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * sizeof(Layer);
+  // The image is rendered in bands of rows whose per-type layers (12 + 8 nb B per pixel and
+  // type: 36 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
+  // band by band: each type's pass still sweeps many rows with its textures in cache, and the
+  // image holds only its outputs (~37 B per pixel for three spectral bands, not ~180 with every
+  // type's layers of the whole image: a 10848^2 full disc in 4 GiB, not 21). No pixel's result
+  // depends on the band size: the bands change only the order of independent work (tested bit
+  // for bit).
+  const std::size_t lbf = layer_band_floats(nb);
+  const std::size_t row_layer_bytes =
+      static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * (sizeof(Layer) + lbf * sizeof(float));
   const int band_rows = static_cast<int>(std::clamp<std::size_t>(
       std::max<std::size_t>(params.layer_budget_bytes / row_layer_bytes, 8 * static_cast<std::size_t>(thread_count())),
       1, static_cast<std::size_t>(h)));
   std::vector<Layer> layers(static_cast<std::size_t>(band_rows) * w * ns);
+  std::vector<float> layer_bands(layers.size() * lbf);
   std::vector<float> t_earth(static_cast<std::size_t>(band_rows) * w);  // to the Earth's surface; inf: space
   std::vector<double> seconds(ns, 0.0);
   std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
@@ -496,6 +505,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
             marched_here += hit.marched;
             if (!hit.hit) continue;
             Layer& L = layers[(row + x) * ns + si];
+            float* const lb = &layer_bands[((row + x) * ns + si) * lbf];
             L.t = static_cast<float>(hit.t);
             const double r = glm::length(hit.position);
             const earth::Vec3 up = hit.position / r;
@@ -515,8 +525,8 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
               }
               const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
               rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
-              L.radiance[b] = static_cast<float>(rad);
-              L.transmittance[b] = static_cast<float>(optics::beer_transmittance(tau));
+              lb[b] = static_cast<float>(rad);
+              lb[nb + b] = static_cast<float>(optics::beer_transmittance(tau));
             }
           }
           progress.advance();
@@ -536,7 +546,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
         const std::size_t px = static_cast<std::size_t>(y) * w + x;
         const std::size_t bpx = static_cast<std::size_t>(y - y0) * w + x;  // within the band
         const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
-        std::array<double, 3> bg{0, 0, 0};
+        std::array<double, optics::max_band_count> bg{};
         if (std::isfinite(t_earth[bpx])) {
           const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[bpx]) * d;
           const earth::Geodetic g = earth::geodetic(q);
@@ -555,10 +565,12 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
         const Layer* pl = &layers[bpx * ns];
         for (std::size_t s = 0; s < ns; ++s) order[s] = s;
         std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
-        std::array<double, 3> rad{0, 0, 0}, trans{1, 1, 1};
+        std::array<double, optics::max_band_count> rad{}, trans;
+        trans.fill(1.0);
         float tau = 0;
         for (std::size_t s = 0; s < ns; ++s) {
           const Layer& L = pl[order[s]];
+          const float* const lb = &layer_bands[(bpx * ns + order[s]) * lbf];
           if (!std::isfinite(L.t)) break;
           if (s == 0) {
             img.cloud_fraction[px] = 1;
@@ -570,8 +582,8 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
           }
           tau += L.tau_vis;
           for (std::size_t b = 0; b < nb; ++b) {
-            rad[b] += trans[b] * L.radiance[b];
-            trans[b] *= L.transmittance[b];
+            rad[b] += trans[b] * lb[b];
+            trans[b] *= lb[nb + b];
           }
         }
         img.cloud_optical_depth[px] = tau;
@@ -611,7 +623,7 @@ void RenderParams::set_steps(int n, const std::string& key) {
 }
 
 void RenderParams::set_bands(const std::vector<std::string>& names, const std::string& key) {
-  if (names.empty()) throw ValueError("no band: at least one of vis, nir, lwir", {.key = key});
+  if (names.empty()) throw ValueError("no band: at least one of " + optics::band_names(), {.key = key});
   for (std::size_t i = 0; i < names.size(); ++i) {
     try {
       optics::band(names[i]);

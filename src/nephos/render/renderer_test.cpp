@@ -6,9 +6,12 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <string>
+#include <vector>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/optics/optics.hpp"
 #include "nephos/weather/reader.hpp"
 
 namespace nephos::render {
@@ -237,6 +240,39 @@ TEST(RendererOnGfs, BandsOfRowsChangeNothingButMemory) {
     }
     set_threads(0);
   }
+}
+
+TEST(RendererOnGfs, EveryBandInOneRenderAsInRendersOfItsOwn) {
+  // A band's radiances depend on nothing but that band: all nine built-in bands in one render
+  // equal, bit for bit, each band rendered alone (the layers' per-band values are laid out per
+  // render, so this checks the layout), and a thermal band has its brightness temperatures. A
+  // tenth band is refused.
+  const auto& r = real();
+  const Sensor s = Sensor::geostationary(-75.2, 48, 36);
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  std::vector<std::string> all;
+  for (const auto& b : optics::bands()) all.push_back(b.name);
+  RenderParams p;
+  p.set_bands(all, "bands");
+  const RenderImage every = render(r.scene, s, sun, p, &r.w);
+  ASSERT_EQ(every.radiance.size(), optics::max_band_count);
+  for (std::size_t b = 0; b < all.size(); ++b) {
+    RenderParams one;
+    one.set_bands({all[b]}, "bands");
+    const RenderImage alone = render(r.scene, s, sun, one, &r.w);
+    EXPECT_EQ(std::memcmp(every.radiance[b].data(), alone.radiance[0].data(), alone.radiance[0].size() * sizeof(float)),
+              0)
+        << all[b];
+    EXPECT_EQ(every.brightness_temperature[b].empty(), !optics::band(all[b]).thermal) << all[b];
+    EXPECT_EQ(every.brightness_temperature[b], alone.brightness_temperature[0]) << all[b];
+  }
+  EXPECT_EQ(every.cloud_top_altitude_m.size(), std::size_t{48 * 36});
+  std::vector<std::string> ten = all;
+  ten.push_back("vis");
+  EXPECT_THROW(p.set_bands(ten, "bands"), ValueError);  // repeated
+  RenderParams unchecked;
+  unchecked.bands = ten;  // past set_bands: the renderer's own limit
+  EXPECT_THROW(render(r.scene, s, sun, unchecked, &r.w), ValueError);
 }
 
 TEST(RendererOnGfs, ASceneGivenAnotherScenesTexturesRendersAsIfItHadBakedThem) {
