@@ -37,8 +37,7 @@ const std::vector<Band>& bands() {
   // which matters in band 7 (3.9 um: ~10 W m^-2 um^-1, reflected sunlight of the same order as
   // a cloud's emission by day) and is negligible beside the thermal emission in bands 13-15
   // (0.13-0.25 W m^-2 um^-1: under 0.1 W m^-2 sr^-1 um^-1 reflected, against ~8 emitted), kept
-  // for completeness. Band edges: the
-  // ABI's nominal half-power bandwidths.
+  // for completeness. Band edges: the ABI's nominal wavelength ranges.
   static const std::vector<Band> b{
       {"vis", "GOES-16 ABI band 2 (red)", 0.64, 0.59, 0.69, 1631.3351, false},
       {"nir", "GOES-16 ABI band 3 (veggie)", 0.865, 0.846, 0.885, 957.0699, false},

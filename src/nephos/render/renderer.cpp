@@ -65,7 +65,7 @@ struct PlanckTable {
   }
 };
 
-struct Layer {  // one cloud type's contribution to one pixel; its per-band values apart (LayerBands)
+struct Layer {  // one cloud type's contribution to one pixel; its per-band values apart (below)
   float t = std::numeric_limits<float>::infinity();
   float altitude = 0, tau_vis = 0;
 };
