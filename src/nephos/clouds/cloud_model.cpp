@@ -108,6 +108,7 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
     q.min_mask = c.get_in("min_mask", q.min_mask, 0.0, 1.0);
     q.water_content_g_m3 = c.get_in("water_content_g_m3", q.water_content_g_m3, 1e-6, 100.0);
     q.effective_radius_um = c.get_in("effective_radius_um", q.effective_radius_um, 0.1, 1e4);
+    q.asymmetry = c.get_in("asymmetry", q.asymmetry, 0.0, 0.99);
     const std::string phase = c.get("phase", q.phase == optics::Phase::water ? "water" : "ice");
     if (phase != "water" && phase != "ice")
       throw ConfigError(

@@ -62,6 +62,10 @@ struct CloudTypeParams {
   optics::Phase phase = optics::Phase::water;
   double water_content_g_m3 = 0.3;
   double effective_radius_um = 10;
+  /// Asymmetry parameter g of the slab's scattering (van de Hulst's similarity relations,
+  /// optics::similarity_scaled): 0, the default, is the seed's slab, in which every scattered
+  /// photon reverses; ~0.85 (cloud droplets) gives realistic albedos and thermal emissivities.
+  double asymmetry = 0;
 };
 
 struct CloudModelParams {

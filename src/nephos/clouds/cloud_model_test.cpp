@@ -126,6 +126,7 @@ TEST(CloudModelParams, ValuesOutsideWhatTheModelCanUseAreErrorsNamingTheKey) {
            {"[clouds.altostratus]\naltitude_length_top_m = 0\n", "clouds.altostratus.altitude_length_top_m"},
            {"[clouds.low_stratus.coarse]\nlength_scale_m = 0\n", "clouds.low_stratus.coarse.length_scale_m"},
            {"[clouds.cirrus]\nmin_mask = 1.5\n", "clouds.cirrus.min_mask"},
+           {"[clouds.low_stratus]\nasymmetry = 1.0\n", "clouds.low_stratus.asymmetry"},
            {"[displacement]\nstep_s = 0\n", "displacement.step_s"},
            {"[textures]\nsize = 65536\n", "textures.size"},
            {"[clouds.cirrus]\nthreshold = nan\n", "clouds.cirrus.threshold"}}) {
@@ -161,6 +162,7 @@ TEST(CloudModelParams, ShippedParameterFileEqualsTheDefaults) {
     EXPECT_EQ(a.phase, b.phase);
     EXPECT_EQ(a.water_content_g_m3, b.water_content_g_m3);
     EXPECT_EQ(a.effective_radius_um, b.effective_radius_um);
+    EXPECT_EQ(a.asymmetry, b.asymmetry);
     for (std::size_t i = 0; i < 3; ++i) {
       EXPECT_EQ(a.fractals[i].weight, b.fractals[i].weight) << k << " " << i;
       EXPECT_EQ(a.fractals[i].length_scale_m, b.fractals[i].length_scale_m);

@@ -129,6 +129,11 @@ SlabResult two_stream_fit(double tau, double omega) {
 
 double beer_transmittance(double tau) { return std::exp(-tau); }
 
+SlabOptics similarity_scaled(double tau, double omega, double g) {
+  const double f = 1 - omega * g;
+  return {f * tau, (1 - g) * omega / f};
+}
+
 double imaginary_index(Phase phase, const Band& b) { return refractive_index(phase, b.centre_um).k; }
 
 OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_e_um, const Band& b) {

@@ -62,6 +62,17 @@ SlabResult two_stream_slab(double tau, double omega);
 SlabResult two_stream_fit(double tau, double omega);
 /// Beer's law (5): direct transmittance exp(-tau).
 double beer_transmittance(double tau);
+/// A slab's optical depth and single-scattering albedo.
+struct SlabOptics {
+  double tau, omega;
+};
+/// van de Hulst's similarity relations for particles that scatter forwards with asymmetry g:
+/// tau' = (1 - omega g) tau, omega' = (1 - g) omega / (1 - omega g), i.e. the scattering
+/// coefficient times (1 - g) and the absorption unchanged: the fraction g of each scattering
+/// event counted as going on undeflected. In (2a)/(2b), where every scattered photon reverses,
+/// g = 0 leaves the seed's slab. The particle clouds and the sprite textures use the same
+/// scaling.
+SlabOptics similarity_scaled(double tau, double omega, double asymmetry);
 
 // ---- Cloud optical properties -------------------------------------------------------------
 enum class Phase { water, ice };

@@ -113,6 +113,40 @@ TEST(Slab, SemiInfiniteLimitAndFit) {
   EXPECT_EQ(two_stream_fit(2.0, 0.0).reflectance, 0.0);
 }
 
+TEST(Slab, SimilarityRelations) {
+  // van de Hulst's similarity relations keep the absorption optical depth (1 - omega) tau and
+  // scale the scattering one omega tau by (1 - g); g = 0 changes nothing, to the bit (the
+  // renderer's default must reproduce the seed's slab exactly). Tolerances: double rounding.
+  for (double omega : {1.0, 0.99, 0.7, 0.3})
+    for (double g : {0.0, 0.5, 0.85}) {
+      const SlabOptics s = similarity_scaled(20.0, omega, g);
+      EXPECT_NEAR((1 - s.omega) * s.tau, (1 - omega) * 20.0, 1e-12) << omega << " " << g;
+      EXPECT_NEAR(s.omega * s.tau, (1 - g) * omega * 20.0, 1e-12) << omega << " " << g;
+    }
+  EXPECT_EQ(similarity_scaled(20.0, 0.7, 0.0).tau, 20.0);
+  EXPECT_EQ(similarity_scaled(20.0, 0.7, 0.0).omega, 0.7);
+  // A conservative cloud of droplets (g = 0.85) against the published two-stream closures
+  // (Meador & Weaver 1980, J. Atmos. Sci. 37, 630, Table 1), whose conservative slab reflects
+  // R = gamma1 tau / (1 + gamma1 tau): the hemispheric-mean closure (gamma1 = 1 - g at omega
+  // = 1) equals the scaled slab to double rounding; the Eddington closure (gamma1 = 3 (1 - g) /
+  // 4) differs only by that factor, so by at most x/(1+x) - x/(4/3+x) at x = sqrt(4/3): 0.072.
+  // The seed's unscaled slab is far brighter than either (0.91 against 0.53-0.60 at tau 10).
+  for (double tau : {2.0, 10.0, 30.0, 100.0}) {
+    const SlabOptics s = similarity_scaled(tau, 1.0, 0.85);
+    const double r = two_stream_slab(s.tau, s.omega).reflectance;
+    EXPECT_NEAR(r, 0.15 * tau / (1 + 0.15 * tau), 1e-12) << tau;
+    EXPECT_NEAR(r, 0.75 * 0.15 * tau / (1 + 0.75 * 0.15 * tau), 0.072) << tau;
+  }
+  EXPECT_GT(two_stream_slab(10.0, 1.0).reflectance - 0.15 * 10 / (1 + 0.15 * 10), 0.3);
+  // Thermal IR (10.35 um, omega ~ 0.7 for r_e 10 um water): a thick cloud emits with
+  // eps = 1 - R; forward scattering (g ~ 0.85) makes it a far better emitter than the seed's
+  // slab (0.59).
+  const double omega_ir = cloud_optics(Phase::water, 0.3, 10.0, band("lwir")).single_scattering_albedo;
+  const SlabOptics thick = similarity_scaled(100.0, omega_ir, 0.85);
+  EXPECT_GT(1 - two_stream_slab(thick.tau, thick.omega).reflectance, 0.85);
+  EXPECT_LT(1 - two_stream_slab(100.0, omega_ir).reflectance, 0.65);
+}
+
 TEST(Beer, HomogeneousSlab) {
   // A 200 m slab with extinction 0.01/m has optical depth 2: transmittance e^-2.
   EXPECT_NEAR(beer_transmittance(0.01 * 200), 0.1353352832366127, 1e-15);

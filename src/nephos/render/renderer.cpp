@@ -440,8 +440,10 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   const std::size_t ns = scene.shells.size();
   std::vector<std::vector<optics::OpticalProperties>> props(ns);
   std::vector<optics::OpticalProperties> vis_props(ns);
+  std::vector<double> asymmetry(ns);
   for (std::size_t si = 0; si < ns; ++si) {
     const clouds::CloudTypeParams& cp = scene.shells[si].params();
+    asymmetry[si] = cp.asymmetry;
     for (const auto* b : bands)
       props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
     vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
@@ -515,8 +517,11 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
             const double mu0 = glm::dot(hit.normal, sun_dir);
             const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
             for (std::size_t b = 0; b < nb; ++b) {
-              const double tau = props[si][b].extinction_per_m * hit.depth_m;
-              const optics::SlabResult slab = optics::two_stream_slab(tau, props[si][b].single_scattering_albedo);
+              // The slab along the line of sight, similarity-scaled for forward scattering (g = 0:
+              // the seed's slab, unchanged to the bit).
+              const optics::SlabOptics so = optics::similarity_scaled(
+                  props[si][b].extinction_per_m * hit.depth_m, props[si][b].single_scattering_albedo, asymmetry[si]);
+              const optics::SlabResult slab = optics::two_stream_slab(so.tau, so.omega);
               const double e_sun = bands[b]->solar_irradiance * sun_scale;
               double rad = 0;
               if (mu_sun_local > 0) {
@@ -526,7 +531,8 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
               const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
               rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
               lb[b] = static_cast<float>(rad);
-              lb[nb + b] = static_cast<float>(optics::beer_transmittance(tau));
+              // What lies behind, seen through the forward-scattered light as well (the scaled tau).
+              lb[nb + b] = static_cast<float>(optics::beer_transmittance(so.tau));
             }
           }
           progress.advance();

@@ -30,8 +30,9 @@ std::shared_ptr<const clouds::FractalTextures> tiny_textures() {
 // A shell whose cloud function depends on altitude only: no fractals, a uniform mask (1 unless
 // given) m, bias b:
 //   CF = b + m - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
-CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f) {
+CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f, double asymmetry = 0) {
   CloudTypeParams p;
+  p.asymmetry = asymmetry;
   p.shell_bottom_m = 1000;
   p.shell_top_m = 3000;
   p.fractals = {};
@@ -112,31 +113,42 @@ TEST(Marcher, OnlyRaysWithPossibleCloudOnTheirPathAreMarched) {
 }
 
 TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
-  // Night side (Sun below the horizon): L = eps B(T_cloud) + exp(-tau) B(T_surface), with
-  // eps = 1 - R - T of the two-stream slab and the direct transmittance by Beer's law (5).
-  clouds::CloudScene scene;
-  scene.shells.push_back(layered_shell(1.0, 0.0));
-  const earth::Vec3 up = earth::unit_from_latlon(0, 0);
-  Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
-  earth::SunPosition sun{};
-  sun.direction_ecef = -up;  // midnight at the sub-sensor point
-  sun.distance_au = 1;
-  RenderParams params;
-  params.bands = {"lwir"};
-  params.surface_temperature_k = 290;
-  const RenderImage img = render(scene, sensor, sun, params);
-  const optics::Band& b = optics::band("lwir");
-  const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
-  const double tau = props.extinction_per_m * 2000.0;
-  const auto slab = optics::two_stream_slab(tau, props.single_scattering_albedo);
-  const double expected = (1 - slab.reflectance - slab.transmittance) *
-                              optics::band_planck(b, optics::standard_atmosphere_temperature_k(3000)) +
-                          std::exp(-tau) * optics::band_planck(b, 290);
-  // The renderer tabulates Planck at 0.01 K: relative error < 1e-5.
-  EXPECT_NEAR(img.radiance[0][0] / expected, 1.0, 1e-5);
-  EXPECT_NEAR(img.cloud_top_altitude_m[0], 3000, 1e-3);
-  EXPECT_NEAR(img.cloud_optical_depth[0],
-              optics::cloud_optics(optics::Phase::water, 0.01, 10, optics::band("vis")).extinction_per_m * 2000, 1e-4);
+  // Night side (Sun below the horizon): L = eps B(T_cloud) + exp(-tau') B(T_surface), with
+  // eps = 1 - R - T of the two-stream slab and the direct transmittance by Beer's law (5). The
+  // slab is the seed's (g = 0) or similarity-scaled for forward scattering (g = 0.85: van de
+  // Hulst's tau' = (1 - omega g) tau, omega' = (1 - g) omega / (1 - omega g), written out here),
+  // which makes the layer a better emitter.
+  double emissivity[2] = {0, 0};
+  for (int i = 0; i < 2; ++i) {
+    const double g = i == 0 ? 0.0 : 0.85;
+    clouds::CloudScene scene;
+    scene.shells.push_back(layered_shell(1.0, 0.0, 1.0f, g));
+    const earth::Vec3 up = earth::unit_from_latlon(0, 0);
+    Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
+    earth::SunPosition sun{};
+    sun.direction_ecef = -up;  // midnight at the sub-sensor point
+    sun.distance_au = 1;
+    RenderParams params;
+    params.bands = {"lwir"};
+    params.surface_temperature_k = 290;
+    const RenderImage img = render(scene, sensor, sun, params);
+    const optics::Band& b = optics::band("lwir");
+    const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
+    const double omega = props.single_scattering_albedo;
+    const double tau = (1 - omega * g) * props.extinction_per_m * 2000.0;
+    const auto slab = optics::two_stream_slab(tau, (1 - g) * omega / (1 - omega * g));
+    emissivity[i] = 1 - slab.reflectance - slab.transmittance;
+    const double expected = emissivity[i] * optics::band_planck(b, optics::standard_atmosphere_temperature_k(3000)) +
+                            std::exp(-tau) * optics::band_planck(b, 290);
+    // The renderer tabulates Planck at 0.01 K: relative error < 1e-5.
+    EXPECT_NEAR(img.radiance[0][0] / expected, 1.0, 1e-5) << "g = " << g;
+    EXPECT_NEAR(img.cloud_top_altitude_m[0], 3000, 1e-3);
+    // The cloud's optical depth is the unscaled visible one.
+    EXPECT_NEAR(img.cloud_optical_depth[0],
+                optics::cloud_optics(optics::Phase::water, 0.01, 10, optics::band("vis")).extinction_per_m * 2000,
+                1e-4);
+  }
+  EXPECT_GT(emissivity[1], emissivity[0]);
 }
 
 // ---- On the real GFS sample -------------------------------------------------------------
