@@ -28,6 +28,7 @@
 #include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
+#include "nephos/optics/optics.hpp"
 #include "nephos/realtime/flight.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
@@ -465,6 +466,26 @@ PYBIND11_MODULE(nephos, m) {
   m.def(
       "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
       "Log lines (and warnings) on stderr, as the command line prints them.");
+  m.def(
+      "bands",
+      [] {
+        py::list out;
+        for (const optics::Band& b : optics::bands()) {
+          py::dict d;
+          d["name"] = b.name;
+          d["description"] = b.description;
+          d["centre_um"] = b.centre_um;
+          d["lo_um"] = b.lo_um;
+          d["hi_um"] = b.hi_um;
+          d["solar_irradiance_w_m2_um"] = b.solar_irradiance;
+          d["thermal"] = b.thermal;
+          out.append(d);
+        }
+        return out;
+      },
+      "The bands Scene.render takes: a list of dicts with name, description (its GOES-16 ABI band), centre_um, "
+      "lo_um, hi_um [um], solar_irradiance_w_m2_um (top of the atmosphere at 1 AU [W m-2 um-1]) and thermal "
+      "(brightness temperature reported).");
 
   py::class_<Weather>(m, "Weather", "Pressure-level weather on a latitude-longitude grid (GRIB1/GRIB2).")
       .def(py::init([](const std::string& path, const std::optional<std::string>& valid_time) {

@@ -90,6 +90,17 @@ class Render(unittest.TestCase):
         self.assertEqual(img["time"], "2011-01-15T12:00:00Z")
         self.assertEqual(sorted(img["seconds_per_type"]), ["cirrus", "low_stratus"])
 
+    def test_the_band_table(self):
+        # The nine GOES-16 ABI bands Scene.render takes, with what a sensor model needs of them.
+        bands = nephos.bands()
+        self.assertEqual([b["name"] for b in bands],
+                         ["vis", "nir", "lwir", "blue", "swir16", "swir22", "mwir", "lwir11", "lwir12"])
+        self.assertEqual({b["name"] for b in bands if b["thermal"]}, {"mwir", "lwir", "lwir11", "lwir12"})
+        vis = bands[0]
+        self.assertEqual((vis["centre_um"], vis["lo_um"], vis["hi_um"]), (0.64, 0.59, 0.69))
+        self.assertEqual(vis["solar_irradiance_w_m2_um"], 1631.3351)  # ABI L1b esun, band 2
+        self.assertIn("ABI band 2", vis["description"])
+
     def test_one_scene_many_views_and_thread_counts(self):
         # A scene is built once and rendered from any sensor; the threads change nothing.
         scene = nephos.Scene(self.weather, types=["altostratus"], texture=32, seed=2)
