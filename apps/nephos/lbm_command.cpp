@@ -239,11 +239,13 @@ int run_lbm(const LbmOptions& o, const GlobalOptions& g) {
 
 Command add_lbm_command(CLI::App& app, const GlobalOptions& g) {
   auto o = std::make_shared<LbmOptions>();
-  auto* lbmc = app.add_subcommand("lbm", "Lattice-Boltzmann convective clouds: water model, percolation, LB lighting, ray casting");
+  auto* lbmc = app.add_subcommand(
+      "lbm", "Lattice-Boltzmann convective clouds: water model, percolation, LB lighting, ray casting");
   lbmc->add_option("--grid", o->grid, "Lattice NXxNYxNZ (z up)")->capture_default_str();
   lbmc->add_option("--silos", o->silos, "Number of initial vapour silos (default 4)");
   lbmc->add_option("--iterations", o->iterations, "Total water-model steps")->capture_default_str();
-  lbmc->add_option("--checkpoint-every", o->checkpoint_every, "Write checkpoint.bin in the --out directory every N steps (0: never)");
+  lbmc->add_option("--checkpoint-every", o->checkpoint_every,
+                   "Write checkpoint.bin in the --out directory every N steps (0: never)");
   lbmc->add_option("--percolation", o->percolation, "Percolation refinement K (0: skip)")
       ->capture_default_str()
       ->check(CLI::Range(0, 16));
