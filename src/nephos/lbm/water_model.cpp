@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <optional>
 
 #include "nephos/core/atomic_file.hpp"
@@ -692,16 +693,30 @@ void WaterModel::unpack_row(Exchange kind, int y, const std::vector<float>& data
   }
 }
 
+namespace {
+// IEEE 754 leaves the sign and payload of a NaN that an operation makes to the operation and
+// the order of its operands, which a slab's loops and the whole lattice's (vectorised or not,
+// operands commuted by the compiler) may choose differently: a blown-up run's NaNs then differ
+// in their sign bit between process counts. So a NaN is shown as "NaN" and stored in a
+// checkpoint as the one quiet NaN, 0x7FC00000: the failure message and checkpoint are then the
+// same whatever the process count.
+std::string value_text(float v) { return std::isnan(v) ? std::string("NaN") : fmt::format("{}", v); }
+void canonical_nans(float* v, std::size_t n) {
+  for (std::size_t k = 0; k < n; ++k)
+    if (std::isnan(v[k])) v[k] = std::numeric_limits<float>::quiet_NaN();
+}
+}  // namespace
+
 bool WaterModel::check(std::string& what, std::size_t& cell) const {
   const auto v = vapour(), t = temperature();
   for (std::size_t k = 0; k < v.size(); ++k) {
     if (!(v[k] >= 0 && v[k] <= 100 * p_.rho10)) {
-      what = fmt::format("vapour density {}", v[k]);
+      what = "vapour density " + value_text(v[k]);
       cell = k;
       return false;
     }
     if (!(t[k] >= 0 && t[k] <= 10)) {
-      what = fmt::format("temperature {}", t[k]);
+      what = "temperature " + value_text(t[k]);
       cell = k;
       return false;
     }
@@ -761,7 +776,8 @@ WaterModelParams params_from_array(const std::array<double, param_count>& a) {
 }
 
 // The checkpoint file: magic, (nx, ny, nz, step), the parameters, then both components'
-// populations of the whole lattice, direction-major and unpadded (f[i * cells + cell]).
+// populations of the whole lattice, direction-major and unpadded (f[i * cells + cell]), every
+// NaN as 0x7FC00000 (canonical_nans()).
 struct CheckpointHeader {
   Grid3 grid;
   long step;
@@ -801,6 +817,7 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i) {
         direction(c, i, values.data());
+        canonical_nans(values.data(), values.size());
         os.write(reinterpret_cast<const char*>(values.data()),
                  static_cast<std::streamsize>(values.size() * sizeof(float)));
       }
@@ -973,6 +990,7 @@ void WaterModel::write_owned(const std::filesystem::path& file) const {
     for (int i = 0; i < d3q19::q; ++i)
       for (int z = 0; z < g_.nz; ++z) {
         f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, owned_begin(), z), run, values.data());
+        canonical_nans(values.data(), run);
         const std::size_t first = checkpoint_value_index(c, i, N, global_.index(0, global_y(owned_begin()), z));
         os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + first * sizeof(float)));
         os.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));

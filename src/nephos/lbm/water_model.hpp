@@ -113,9 +113,10 @@ class WaterModel {
   /// in the whole lattice's coordinates (also for a slab); nothing when every density is fine.
   std::optional<std::string> bad_density() const;
 
-  /// Checkpoint: the full state, bit-exact (atomic write). Resuming gives results identical to
-  /// an uninterrupted run. One file format whatever the process count: a run may resume on a
-  /// different number of MPI processes.
+  /// Checkpoint: the full state, bit-exact (atomic write), except that every NaN is stored as
+  /// the quiet NaN 0x7FC00000 (a NaN's sign and payload depend on the order of operations).
+  /// Resuming gives results identical to an uninterrupted run. One file format whatever the
+  /// process count: a run may resume on a different number of MPI processes.
   void save(const std::filesystem::path& path) const;
   static WaterModel load(const std::filesystem::path& path);
   /// The lattice size a checkpoint holds (reads its header only).
