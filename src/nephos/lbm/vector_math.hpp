@@ -9,14 +9,15 @@
 
 namespace nephos::lbm {
 
-/// e^x for x <= 0, to 2 ulp (tested against libm); x below -87 gives e^-87 (~1.6e-38).
-/// Range reduction x = k ln 2 + r, |r| <= ln 2 / 2 (ln 2 split in two for an exact k ln 2),
-/// then e^r by its Taylor polynomial of degree 7 (truncation < 5.3e-9 relative) and 2^k by
-/// building the exponent bits. Outside its use (Psi_1 of a negative density: a run blowing up,
-/// which the density check then stops) it stays defined: e^x to 2 ulp up to x = 88, +inf
-/// beyond (as e^x overflows a float), NaN for NaN. k is clamped to [-126, 127] before its
-/// conversion to int, which is undefined behaviour out of range (a NaN, or x = 2.8e11 seen in
-/// a blown-up run by an UndefinedBehaviorSanitizer build); inside, the clamp changes nothing.
+/// e^x for x <= 0, to 2 ulp (tested against libm); x below -87 gives e^-87 (~1.6e-38). Range
+/// reduction x = k ln 2 + r, |r| <= ln 2 / 2 (ln 2 split in two for an exact k ln 2), then e^r
+/// by its Taylor polynomial of degree 7 (truncation < 5.3e-9 relative) and 2^k by building the
+/// exponent bits. Outside its use (Psi_1 of a negative density: a run blowing up, which the
+/// density check then stops) it stays defined: e^x to 2 ulp up to x = 88 (finite up to
+/// ln(FLT_MAX) = 88.72), +inf above it (where e^x overflows a float), NaN for NaN. k is clamped
+/// to [-126, 127] before its conversion to int, which is undefined behaviour out of range (a
+/// NaN, or x = 2.8e11 seen in a blown-up run by an UndefinedBehaviorSanitizer build); inside,
+/// the clamp changes nothing.
 // Always inlined: called in `omp simd` loops, where an out-of-line call would run lane by lane.
 [[gnu::always_inline]] inline float exp_nonpositive(float x) {
   x = x < -87.0f ? -87.0f : x;
