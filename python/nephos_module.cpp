@@ -314,8 +314,8 @@ class Flight {
     else
       recipe = realtime::recipe_from_code(realtime::parse_weather_code(code.value_or("d300")));
     realtime::FlightParams fp;
-    fp.altitude_m = altitude_ft * 0.3048;
-    fp.speed_m_s = speed_kt * 0.514444;
+    fp.altitude_m = altitude_ft * realtime::metres_per_foot;
+    fp.speed_m_s = speed_kt * realtime::metres_per_second_per_knot;
     fp.sort_optimised = sort_opt;
     fp.impostors = impostors;
     flight_.emplace(recipe, seed, fp);

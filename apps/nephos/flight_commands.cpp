@@ -104,8 +104,8 @@ int run_view_command(const FlyOptions& o, const std::string& screenshot, const G
   v.api = realtime::gl_api_from_name(o.gl);
   v.recipe = flight_recipe(o, time, v.lat_deg, v.lon_deg);
   v.frames = o.frames;
-  v.altitude_m = o.altitude_ft * 0.3048;
-  v.speed_m_s = o.speed_kt * 0.514444;
+  v.altitude_m = o.altitude_ft * realtime::metres_per_foot;
+  v.speed_m_s = o.speed_kt * realtime::metres_per_second_per_knot;
   v.impostor_radius_m = o.impostor_radius_km * 1000;
   v.single_sprite_distance_m = o.lod_km * 1000;
   v.impostors = !o.no_impostors;
@@ -132,8 +132,8 @@ int run_fly(const FlyOptions& o, const GlobalOptions& g) {
   const realtime::CloudRecipe recipe = flight_recipe(o, time, lat, lon);
   spdlog::info("clouds from {}: {} sprite clouds", recipe.source, recipe.sprite_clouds());
   realtime::FlightParams fp;
-  fp.altitude_m = o.altitude_ft * 0.3048;
-  fp.speed_m_s = o.speed_kt * 0.514444;
+  fp.altitude_m = o.altitude_ft * realtime::metres_per_foot;
+  fp.speed_m_s = o.speed_kt * realtime::metres_per_second_per_knot;
   fp.sort_optimised = !o.no_sort_opt;
   fp.impostors = !o.no_impostors;
   realtime::StraightFlight flight(recipe, g.seed, fp);

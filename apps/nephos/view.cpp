@@ -150,9 +150,10 @@ int run_view(const ViewOptions& o) {
     const int scale = std::max(2, fb_h / 240);
     realtime::draw_hud_text(fmt::format("{:.1f} MS {:.0f} FPS", shown_ms, 1000.0 / std::max(shown_ms, 0.1)), scale * 2,
                             scale * 2, scale, fb_h);
-    realtime::draw_hud_text(fmt::format("SPD {:.0f} KT ALT {:.0f} FT IMP {}", flight.speed_m_s / 0.514444,
-                                        position.z / 0.3048, impostors ? "ON" : "OFF"),
-                            scale * 2, scale * 10, scale, fb_h);
+    realtime::draw_hud_text(
+        fmt::format("SPD {:.0f} KT ALT {:.0f} FT IMP {}", flight.speed_m_s / realtime::metres_per_second_per_knot,
+                    position.z / realtime::metres_per_foot, impostors ? "ON" : "OFF"),
+        scale * 2, scale * 10, scale, fb_h);
     const bool last_frame = o.frames > 0 && frame + 1 == o.frames;
     if (last_frame && !o.screenshot.empty())
       write_rgb_png(o.screenshot, fb_w, fb_h, realtime::read_framebuffer_rgba(0, fb_w, fb_h));

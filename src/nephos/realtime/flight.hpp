@@ -19,10 +19,10 @@ namespace nephos::realtime {
 inline constexpr double min_altitude_ft = -1500, max_altitude_ft = 100000, max_speed_kt = 5000, max_lod_km = 1e4;
 
 struct FlightParams {
-  double altitude_m = 8000 * 0.3048;  ///< above the ground (the thesis's 8000 ft)
-  double speed_m_s = 250 * 0.514444;  ///< ground speed, eastwards (250 kt)
-  bool sort_optimised = true;         ///< re-sort only when the view changed enough (ResortPolicy)
-  bool impostors = true;              ///< far clouds through the impostor ring
+  double altitude_m = 8000 * metres_per_foot;           ///< above the ground (the thesis's 8000 ft)
+  double speed_m_s = 250 * metres_per_second_per_knot;  ///< ground speed, eastwards (250 kt)
+  bool sort_optimised = true;                           ///< re-sort only when the view changed enough (ResortPolicy)
+  bool impostors = true;                                ///< far clouds through the impostor ring
 };
 
 class StraightFlight {

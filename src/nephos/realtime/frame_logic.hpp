@@ -8,6 +8,7 @@
 
 #include "nephos/core/time.hpp"
 #include "nephos/realtime/cloud_field.hpp"
+#include "nephos/realtime/weather_input.hpp"  // metres_per_foot
 
 namespace nephos::realtime {
 
@@ -32,7 +33,7 @@ struct ResortPolicy {
 struct ImpostorRing {
   double radius_m = 8000;
   double horizontal_fraction = 0.15, vertical_fraction = 0.02;
-  double max_vertical_offset_m = 10000 * 0.3048;
+  double max_vertical_offset_m = 10000 * metres_per_foot;
   glm::dvec3 centre{0};  ///< camera position when the impostors were made, in the air's frame
                          ///< (world minus the clouds' drift, CloudField::drift_offset_m)
   bool valid = false;

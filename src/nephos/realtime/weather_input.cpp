@@ -130,7 +130,7 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
     }
     any = true;
     const std::string cover = m[1];
-    const double base_m = std::stoi(m[2]) * 100 * 0.3048;  // hundreds of feet -> metres
+    const double base_m = std::stoi(m[2]) * 100 * metres_per_foot;  // hundreds of feet
     const std::string extra = m[3];
     // Coverage: mid-points of the oktas each group stands for.
     const double oktas = cover == "FEW" ? 1.5 : cover == "SCT" ? 3.5 : cover == "BKN" ? 6 : 8;

@@ -12,6 +12,10 @@
 
 namespace nephos::realtime {
 
+/// Aviation's units: the international foot, and the knot as nephos has always converted it
+/// (1852 / 3600 = 0.51444... m/s, rounded to six places; kept so that flights stay bit for bit).
+inline constexpr double metres_per_foot = 0.3048, metres_per_second_per_knot = 0.514444;
+
 enum class SpriteCloudType { cumulus, stratocumulus, altostratus, cirrus, low_stratus };
 const char* name(SpriteCloudType t);
 

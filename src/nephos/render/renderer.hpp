@@ -43,7 +43,7 @@ struct RenderParams {
   /// Set `steps` (1..10000) and, from a count of rays per pixel that must be a square k^2 of
   /// 1..256, `samples_per_axis`; ValueError naming `key` otherwise.
   void set_steps(int n, const std::string& key);
-  /// Set `bands`: at least one, each a known band (vis, nir, lwir) listed once; ValueError
+  /// Set `bands`: at least one, each a known band (optics::bands()) listed once; ValueError
   /// naming `key` otherwise.
   void set_bands(const std::vector<std::string>& names, const std::string& key);
   void set_rays_per_pixel(int rays, const std::string& key);
