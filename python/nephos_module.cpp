@@ -289,13 +289,15 @@ class Flight {
                        {.key = "size"});
     const auto [lat, lon] = position;
     require_range(lat, -90, 90, "position", "the latitude [deg]");
-    require_range(lon, -360, 360, "position", "the longitude [deg]");
+    require_range(lon, -realtime::max_abs_longitude_deg, realtime::max_abs_longitude_deg, "position",
+                  "the longitude [deg]");
     require_range(altitude_ft, realtime::min_altitude_ft, realtime::max_altitude_ft, "altitude_ft",
                   "the altitude [ft]");
     require_range(speed_kt, 0, realtime::max_speed_kt, "speed_kt", "the ground speed [kt]");
     require_range(lod_km, 0, realtime::max_lod_km, "lod_km", "the level-of-detail distance [km] (0: off)");
-    if (!(impostor_radius_km > 0 && impostor_radius_km <= 1e4))
-      throw ValueError(fmt::format("the impostor ring radius [km] must be in (0, 10000], got {:g}", impostor_radius_km),
+    if (!(impostor_radius_km > 0 && impostor_radius_km <= realtime::max_impostor_radius_km))
+      throw ValueError(fmt::format("the impostor ring radius [km] must be in (0, {:g}], got {:g}",
+                                   realtime::max_impostor_radius_km, impostor_radius_km),
                        {.key = "impostor_radius_km"});
     if (background != "sky" && background != "transparent")
       throw ValueError("expected \"sky\" or \"transparent\", got '" + background + "'", {.key = "background"});

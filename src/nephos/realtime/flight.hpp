@@ -15,8 +15,10 @@
 namespace nephos::realtime {
 
 /// The numbers a flight accepts: from the Dead Sea shore to beyond any aircraft's ceiling, up to
-/// 5000 kt, and a level of detail up to 10 000 km (0: off).
-inline constexpr double min_altitude_ft = -1500, max_altitude_ft = 100000, max_speed_kt = 5000, max_lod_km = 1e4;
+/// 5000 kt, a level of detail up to 10 000 km (0: off), an impostor ring radius in (0, 10 000]
+/// km and a longitude in [-360, 360] degrees (either sign convention, one turn either way).
+inline constexpr double min_altitude_ft = -1500, max_altitude_ft = 100000, max_speed_kt = 5000, max_lod_km = 1e4,
+                        max_impostor_radius_km = 1e4, max_abs_longitude_deg = 360;
 
 struct FlightParams {
   double altitude_m = 8000 * metres_per_foot;           ///< above the ground (the thesis's 8000 ft)
