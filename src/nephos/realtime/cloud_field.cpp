@@ -3,6 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
+#include <utility>
+
+#include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
 
 namespace nephos::realtime {
@@ -70,6 +75,9 @@ void CloudField::build_sprites(SpriteCloud& c) const {
 
 CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params)
     : seed_(seed), p_(params), drift_m_s_(recipe.drift_east_m_s, recipe.drift_north_m_s) {
+  for (const auto& [value, key] : {std::pair{p_.fade_s, "fade_s"}, {p_.relocation_fade_s, "relocation_fade_s"}})
+    if (!(value > 0 && value < 1e9))
+      throw ValueError(fmt::format("must be in (0, 1e9) s, got {:g}", value), {.key = key});
   std::uint32_t id = 0;
   layers_ = flat_layers_of(recipe);
   for (const auto& layer : recipe.layers) {
@@ -111,9 +119,17 @@ CloudField::CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm:
           clouds_[j].centre.y -= push.y;
         }
   }
+  // The field as the camera first sees it (looking east, as the flights start): what lies behind
+  // it is moved ahead at once by follow_camera's rule, already formed, since nobody saw it
+  // appear.
+  relocate(camera, {1, 0, 0}, false);
 }
 
 int CloudField::follow_camera(const glm::dvec3& camera, const glm::dvec3& forward) {
+  return relocate(camera, forward, true);
+}
+
+int CloudField::relocate(const glm::dvec3& camera, const glm::dvec3& forward, bool form) {
   int moved = 0;
   glm::dvec3 f{forward.x, forward.y, 0};
   f = glm::length(f) > 1e-9 ? glm::normalize(f) : glm::dvec3{1, 0, 0};
@@ -126,6 +142,12 @@ int CloudField::follow_camera(const glm::dvec3& camera, const glm::dvec3& forwar
     ++c.relocations;
     c.centre = place(layer_of_cloud_[k], c.id, c.relocations, camera, f, true);
     ++moved;
+    if (!form) continue;
+    // It forms there (seed 004's formation fade) rather than popping into view; a dissipating
+    // cloud stays at opacity 0 and is removed by the next advance_time.
+    c.opacity = c.fade_from = 0;
+    c.fade_start_s = now_s_;
+    c.fade_time_s = p_.relocation_fade_s;
   }
   return moved;
 }
@@ -148,6 +170,7 @@ void CloudField::change_weather(const CloudRecipe& recipe, double now_s, const g
     x.fade_from = x.opacity;
     x.fade_to = to;
     x.fade_start_s = now_s;
+    x.fade_time_s = p_.fade_s;
   };
   for (SpriteCloudType type : {SpriteCloudType::cumulus, SpriteCloudType::stratocumulus}) {
     int wanted = 0;
@@ -199,7 +222,7 @@ void CloudField::advance_time(double now_s) {
   for (auto& c : clouds_) c.centre += glm::dvec3(shift, 0.0);
   now_s_ = now_s;
   auto update = [&](auto& x) {
-    const double t = std::clamp((now_s - x.fade_start_s) / p_.fade_s, 0.0, 1.0);
+    const double t = std::clamp((now_s - x.fade_start_s) / x.fade_time_s, 0.0, 1.0);
     x.opacity = static_cast<float>(x.fade_from + (x.fade_to - x.fade_from) * t);
   };
   for (auto& c : clouds_) update(c);

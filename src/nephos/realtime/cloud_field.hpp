@@ -28,9 +28,10 @@ struct SpriteCloud {
   std::vector<glm::vec3> group_centres;  ///< per shading group, offsets from the centre
   std::uint32_t relocations = 0;
   /// Formation and dissipation (MSFS 2004): opacity ramps linearly from fade_from to fade_to
-  /// over the field's fade time from fade_start_s; the renderer multiplies alpha by it.
+  /// over fade_time_s from fade_start_s; the renderer multiplies alpha by it.
   float opacity = 1, fade_from = 1, fade_to = 1;
   double fade_start_s = -1e300;
+  double fade_time_s = 20;  ///< the field's fade_s, or relocation_fade_s after a relocation
   /// The whole cloud as one sprite, for the single-sprite level of detail far away (MSFS 2004:
   /// "a degenerate case of the model"): at the sprites' centroid, as wide as the cloud, in a
   /// shading group of its own centred on it (no directional term), the side view's texture.
@@ -44,6 +45,7 @@ struct FlatLayer {
   double extent_m;  ///< half-width of the square it covers around the camera
   float opacity = 1, fade_from = 1, fade_to = 1;
   double fade_start_s = -1e300;
+  double fade_time_s = 20;  ///< the field's fade_s
 };
 
 struct CloudFieldParams {
@@ -51,13 +53,20 @@ struct CloudFieldParams {
   double min_spacing_m = 3000;    ///< spread codes (d100/d200): minimum distance between clouds (B.3)
   double cluster_sigma_m = 2500;  ///< clustered codes: spread of clouds around a cluster centre (B.2)
   double fade_s = 20;             ///< formation / dissipation time of a cloud or layer
+  /// A cloud relocated ahead forms over this time [s] instead of appearing from nothing: 3 s,
+  /// 90 frames, long enough to read as a distant cloud coming into view, short enough that it
+  /// is seldom still forming when the impostor ring is next made (forming clouds stay sprites).
+  double relocation_fade_s = 3;
 };
 
 class CloudField {
  public:
+  /// The clouds around `camera`, which is taken to look east (+x) at first: those that would lie
+  /// behind it are placed ahead at once (follow_camera's rule), formed.
   CloudField(const CloudRecipe& recipe, std::uint64_t seed, const glm::dvec3& camera, CloudFieldParams params = {});
   /// Moves clouds that fell behind the camera (or out of the field) to new places ahead of it
-  /// (12-30 km away, beyond the impostor ring). Returns how many were relocated.
+  /// (12-30 km away, beyond the impostor ring), where they form from opacity 0 over
+  /// relocation_fade_s (a dissipating one is removed instead). Returns how many were relocated.
   int follow_camera(const glm::dvec3& camera, const glm::dvec3& forward);
   /// New weather at time now_s [s]: per sprite type, clouds beyond the new count dissipate
   /// (fade out, then are removed) and missing ones form around the camera (fade in); flat layers
@@ -78,6 +87,8 @@ class CloudField {
 
  private:
   void build_sprites(SpriteCloud& c) const;
+  // follow_camera's rule; `form`: the moved clouds form from opacity 0 (else they are there).
+  int relocate(const glm::dvec3& camera, const glm::dvec3& forward, bool form);
   std::vector<FlatLayer> flat_layers_of(const CloudRecipe& recipe) const;
   glm::dvec3 place(const CloudLayerRecipe& layer, std::uint32_t id, std::uint32_t salt, const glm::dvec3& around,
                    const glm::dvec3& forward, bool ahead) const;

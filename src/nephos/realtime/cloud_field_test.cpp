@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "nephos/core/error.hpp"
+
 namespace nephos::realtime {
 namespace {
 CloudField field(const char* code, std::uint64_t seed = 4) {
@@ -44,11 +46,14 @@ TEST(CloudField, CountsAndAltitudeBandsPerCode) {
 }
 
 TEST(CloudField, SpreadCodesKeepTheirDistanceClusteredOnesGather) {
-  const CloudField spread = field("d200");  // 30 clouds, spread (Appendix B.3)
+  // 30 clouds, spread (Appendix B.3); those the camera would have behind it at first were then
+  // moved ahead by the relocation rule (thesis 3.3.5), which does not space them.
+  const CloudField spread = field("d200");
   double min_d = 1e30;
   for (const auto& a : spread.clouds())
     for (const auto& b : spread.clouds())
-      if (a.id != b.id) min_d = std::min(min_d, glm::length(glm::dvec2(a.centre - b.centre)));
+      if (a.id != b.id && a.relocations == 0 && b.relocations == 0)
+        min_d = std::min(min_d, glm::length(glm::dvec2(a.centre - b.centre)));
   EXPECT_GT(min_d, 0.9 * CloudFieldParams{}.min_spacing_m);  // iterative pushing: within 10 %
   // Clustered clouds (d300) sit much closer to their nearest neighbour than spread ones would
   // at the same count over the same field.
@@ -70,6 +75,36 @@ TEST(CloudField, CloudsBehindTheCameraAreRelocatedAhead) {
     EXPECT_LT(glm::length(glm::dvec2(c.centre - cam)), 1.2 * r);
   }
   EXPECT_EQ(f.follow_camera(cam, fwd), 0);  // nothing left to move
+}
+
+TEST(CloudField, RelocatedCloudsFormInsteadOfPopping) {
+  // A cloud moved ahead starts at opacity 0 and forms linearly over relocation_fade_s (3 s),
+  // independently of the weather's 20 s formation time; one that was dissipating when it fell
+  // behind is removed instead of coming back.
+  const CloudFieldParams p;
+  CloudField f(recipe_from_code(parse_weather_code("d400")), 4, {0, 0, 0}, p);
+  f.change_weather(recipe_from_code(parse_weather_code("d300")), 0.0, {0, 0, 0});  // 200 -> 75 clouds
+  f.advance_time(1.0);
+  std::size_t dissipating = 0;
+  for (const auto& c : f.clouds()) dissipating += c.fade_to == 0;
+  ASSERT_EQ(dissipating, 125u);
+  const glm::dvec3 cam{100000, 0, 1500}, fwd{1, 0, 0};
+  EXPECT_EQ(f.follow_camera(cam, fwd), 200);
+  for (const auto& c : f.clouds()) {
+    EXPECT_EQ(c.opacity, 0.0f);
+    EXPECT_TRUE(c.fading() || c.fade_to == 0);
+  }
+  f.advance_time(1.0 + 0.5 * p.relocation_fade_s);
+  ASSERT_EQ(f.clouds().size(), 75u);  // the dissipating ones are gone
+  for (const auto& c : f.clouds()) EXPECT_FLOAT_EQ(c.opacity, 0.5f);
+  f.advance_time(1.0 + p.relocation_fade_s);
+  for (const auto& c : f.clouds()) {
+    EXPECT_EQ(c.opacity, 1.0f);
+    EXPECT_FALSE(c.fading());
+  }
+  CloudFieldParams bad;
+  bad.relocation_fade_s = 0;
+  EXPECT_THROW(CloudField(recipe_from_code(parse_weather_code("d100")), 4, {0, 0, 0}, bad), ValueError);
 }
 
 TEST(CloudField, DeterministicFromTheSeedAndLod) {

@@ -751,7 +751,7 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   m.buffer.clear();
   for (std::size_t k : order) {
     const Shade sh = shade_sprite(*items[k].first, *items[k].second, sun);
-    push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, 1.0,
+    push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, items[k].first->opacity,
                   sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
   }
   submit(t, 0, order.size(), m.texture, true, Shading::bent_normal);
@@ -827,8 +827,11 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     std::vector<SpriteKey> keys;
     std::array<double, 8> lo, hi;
     lo.fill(1e9), hi.fill(-1e9);
-    for (const auto& c : field.clouds()) {  // forming or dissipating clouds stay sprites
-      if (c.fading() || c.opacity != 1) continue;
+    // Forming clouds (relocated ahead, or new weather) go in at the opacity they have when their
+    // sector is rendered and keep it until the ring is made again (MSFS 2004: an impostor
+    // stands for its clouds as they were); dissipating ones stay sprites, so that they go.
+    for (const auto& c : field.clouds()) {
+      if (c.fade_to != 1 || !(c.opacity > 0)) continue;
       for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
         const Sprite& sp = c.sprites[k];
         const glm::dvec3 p = c.centre + glm::dvec3(sp.offset);

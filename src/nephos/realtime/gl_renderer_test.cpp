@@ -191,6 +191,39 @@ TEST(SpriteRendererGl, ImpostorsHoldTheSpritesBeyondTheRingNotWholeClouds) {
   EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());  // ring off: every sprite
 }
 
+TEST(SpriteRendererGl, FormingCloudsGoIntoTheRingDissipatingOnesStaySprites) {
+  // A forming cloud (new weather, or relocated ahead) is held by a ring made while it forms, at
+  // the opacity it then has; a dissipating one stays sprites, so that it goes. Counted from the
+  // field's geometry as above: d300 -> d400 (125 clouds forming, half-way), then d400 -> d200
+  // (170 dissipating, half-way).
+  const glm::dvec3 eye{0, 0, 2400};
+  CloudField field(recipe_from_code(parse_weather_code("d300")), 5, eye);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera cam{eye, {1, 0, -0.05}, {0, 0, 1}, 60};
+  const ImpostorRing ring;  // the renderer's defaults
+  auto expected_sprites = [&] {
+    std::size_t n = 0;
+    for (const SpriteCloud& c : field.clouds())
+      for (const Sprite& s : c.sprites)
+        n += c.fade_to == 0 || !ring.in_impostor(c.centre + glm::dvec3(s.offset), 0.5 * std::sqrt(2.0) * s.size_m, eye);
+    return n;
+  };
+  field.change_weather(recipe_from_code(parse_weather_code("d400")), 0.0, eye);
+  field.advance_time(10.0);
+  std::size_t forming = 0;
+  for (const SpriteCloud& c : field.clouds()) forming += c.fading() && c.fade_to == 1;
+  ASSERT_EQ(forming, 125u);
+  SpriteRenderer a(96, 64, 5);
+  EXPECT_EQ(a.draw(field, cam, sun, true, true).sprites, expected_sprites());
+  field.change_weather(recipe_from_code(parse_weather_code("d200")), 10.0, eye);
+  field.advance_time(20.0);
+  std::size_t dissipating = 0;
+  for (const SpriteCloud& c : field.clouds()) dissipating += c.fade_to == 0 && c.opacity > 0;
+  ASSERT_EQ(dissipating, 170u);
+  SpriteRenderer b(96, 64, 5);
+  EXPECT_EQ(b.draw(field, cam, sun, true, true).sprites, expected_sprites());
+}
+
 TEST(SpriteRendererGl, CrossfadeDrawsTheSpritesNotHeldByBothSets) {
   // After the camera moves past the 15 % threshold, the new set is rendered one sector per
   // frame (frames 1-8) while the old one alone stands for its sprites; then the two crossfade
@@ -320,8 +353,11 @@ TEST(SpriteRendererGl, TransparentFramesOverTheSkyAreTheSkyFrames) {
     SpriteRenderer over_sky(320, 180, 5), clear(320, 180, 5);
     clear.set_background(SpriteRenderer::Background::transparent);
     for (int f = 0; f < 12; ++f) {
+      // 4 s per frame: the clouds relocated in one frame (drawn at opacity 0) have formed by
+      // the next (relocation_fade_s = 3 s), so no pixel sees a stack of translucent forming
+      // sprites, each blend of which would round once more.
       cam.position.x += 500;
-      field.advance_time(f / 30.0);
+      field.advance_time(4.0 * f);
       field.follow_camera(cam.position, cam.forward);
       over_sky.make_current();
       over_sky.draw(field, cam, sun, true, impostors);
@@ -675,6 +711,7 @@ TEST(SpriteRendererGl, CloudsBeyondAFlatLayerAreBehindIt) {
       CloudField field(*recipes[k], 3, eye);
       field.advance_time(0);
       field.follow_camera(eye, cam.forward);
+      field.advance_time(CloudFieldParams{}.relocation_fade_s);  // the clouds moved ahead have formed
       const FrameStats st = renderer.draw(field, cam, sun, true, impostors);
       if (k == 0) ring_sprites = field.sprite_count() - st.sprites;
       if (k == 2) {
