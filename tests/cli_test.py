@@ -551,7 +551,8 @@ class Fly(unittest.TestCase):
             for args, needle in ((["--change", "d400@-1"], "--change"), (["--speed", "-5"], "--speed"),
                                  (["--altitude", "1e9"], "--altitude"), (["--position", "95,0"], "--position"),
                                  (["--position", "10,500"], "longitude"), (["--lod-km", "-1"], "--lod-km"),
-                                 (["--impostor-radius-km", "0"], "--impostor-radius-km"), (["--time", "2024-06-31T10:00:00Z"], "calendar"),
+                                 (["--impostor-radius-km", "0"], "--impostor-radius-km"),
+                                 (["--time", "2024-06-31T10:00:00Z"], "calendar"),
                                  (["--size", "20000x100"], "largest framebuffer")):
                 # -q: the frame size is checked once the weather is decoded, after its info line
                 Info.assert_input_error(self, run("-q", "fly", "--frames", "1", *args, "--out", out), needle)

@@ -54,8 +54,7 @@ struct CloudFieldParams {
   double cluster_sigma_m = 2500;  ///< clustered codes: spread of clouds around a cluster centre (B.2)
   double fade_s = 20;             ///< formation / dissipation time of a cloud or layer
   /// A cloud relocated ahead forms over this time [s] instead of appearing from nothing: 3 s,
-  /// 90 frames, long enough to read as a distant cloud coming into view, short enough that it
-  /// is seldom still forming when the impostor ring is next made (forming clouds stay sprites).
+  /// 90 frames, long enough to read as a distant cloud coming into view rather than a pop.
   double relocation_fade_s = 3;
 };
 
