@@ -245,8 +245,15 @@ std::size_t CloudField::sprite_count() const {
   return n;
 }
 
+double CloudField::lod_weight(double distance_m, double single_sprite_distance_m) {
+  if (!(single_sprite_distance_m > 0)) return 0.0;
+  constexpr double band = 0.05;  // half-width of the cross-dissolve, as a fraction of the distance
+  return std::clamp((distance_m / single_sprite_distance_m - (1 - band)) / (2 * band), 0.0, 1.0);
+}
+
 std::size_t CloudField::sprites_to_draw(const SpriteCloud& c, double distance_m, double single_sprite_distance_m) {
-  return distance_m > single_sprite_distance_m ? 1 : c.sprites.size();
+  const double w = lod_weight(distance_m, single_sprite_distance_m);
+  return (w > 0 ? 1 : 0) + (w < 1 ? c.sprites.size() : 0);
 }
 
 }  // namespace nephos::realtime

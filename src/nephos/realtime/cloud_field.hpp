@@ -81,7 +81,12 @@ class CloudField {
   const std::vector<SpriteCloud>& clouds() const { return clouds_; }
   const std::vector<FlatLayer>& layers() const { return layers_; }
   std::size_t sprite_count() const;
-  /// Level of detail: 1 (a single sprite) beyond `single_sprite_distance_m`, else all sprites.
+  /// Level of detail: the weight of a cloud's single sprite at `distance_m`, its sprites' being
+  /// 1 minus it: 0 within 0.95 `single_sprite_distance_m`, 1 beyond 1.05 of it, linear between
+  /// (a cross-dissolve over 2 km at 20 km instead of a switch); 0 everywhere if that is 0 (off).
+  static double lod_weight(double distance_m, double single_sprite_distance_m);
+  /// The sprites a cloud draws at `distance_m`: its single sprite where lod_weight > 0 and all its
+  /// sprites where lod_weight < 1 (both across the level-of-detail distance).
   static std::size_t sprites_to_draw(const SpriteCloud& c, double distance_m, double single_sprite_distance_m);
 
  private:

@@ -118,6 +118,22 @@ TEST(CloudField, DeterministicFromTheSeedAndLod) {
   const auto& cl = a.clouds()[0];
   EXPECT_EQ(CloudField::sprites_to_draw(cl, 50000, 20000), 1u);
   EXPECT_EQ(CloudField::sprites_to_draw(cl, 5000, 20000), cl.sprites.size());
+  EXPECT_EQ(CloudField::sprites_to_draw(cl, 20000, 20000), cl.sprites.size() + 1);  // both, dissolving
+  EXPECT_EQ(CloudField::sprites_to_draw(cl, 50000, 0), cl.sprites.size());          // LOD off
+}
+
+TEST(CloudField, LevelOfDetailCrossDissolvesOverTwoKilometresAtTwenty) {
+  // The single sprite's weight: 0 up to 0.95 L, 1 from 1.05 L, linear between (L = 20 km: 19-21
+  // km); continuous, so a cloud never switches at once. Exact up to rounding (1e-12).
+  EXPECT_EQ(CloudField::lod_weight(18000, 20000), 0.0);
+  EXPECT_EQ(CloudField::lod_weight(19000, 20000), 0.0);
+  EXPECT_NEAR(CloudField::lod_weight(19500, 20000), 0.25, 1e-12);
+  EXPECT_NEAR(CloudField::lod_weight(20000, 20000), 0.5, 1e-12);
+  EXPECT_EQ(CloudField::lod_weight(21000, 20000), 1.0);
+  EXPECT_EQ(CloudField::lod_weight(1e6, 20000), 1.0);
+  EXPECT_EQ(CloudField::lod_weight(1e6, 0), 0.0);  // off
+  for (double d = 18000; d < 22000; d += 10)       // at most a step's worth per 10 m (slope 1 / 2 km)
+    EXPECT_LE(CloudField::lod_weight(d + 10, 20000) - CloudField::lod_weight(d, 20000), 10.0 / 2000 + 1e-12);
 }
 
 TEST(CloudField, CloudsDriftWithTheWind) {

@@ -1072,7 +1072,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     double alpha;
   };
   std::vector<Item> items;
-  std::uint64_t lod_signature = 0;  // which clouds are drawn as their LOD sprite (order validity)
+  std::uint64_t lod_signature = 0;  // which clouds draw their LOD sprite, and which also their sprites
   std::vector<char> in_front, in_back;
   for (const auto& c : field.clouds()) {
     if (c.opacity <= 0) continue;
@@ -1091,16 +1091,19 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       if (f && b) return 0.0;
       return c.opacity * (f ? back_weight : 1.0) * (b ? 1 - back_weight : 1.0);
     };
+    // Level of detail: across its distance the cloud's one sprite and its sprites cross-dissolve
+    // (CloudField::lod_weight), so that a cloud does not change at once from one to the other.
     const double lod = m.single_sprite_distance_m;
-    if (!held && lod > 0 && CloudField::sprites_to_draw(c, glm::length(c.centre - cam.position), lod) == 1) {
-      const double alpha = c.opacity;
+    const double w_lod = held || !(lod > 0) ? 0.0 : CloudField::lod_weight(glm::length(c.centre - cam.position), lod);
+    if (w_lod > 0) {
       pos.push_back(c.centre + glm::dvec3(c.lod.offset));
-      items.push_back({&c, &c.lod, lod_index, alpha});
+      items.push_back({&c, &c.lod, lod_index, c.opacity * w_lod});
       lod_signature += (static_cast<std::uint64_t>(c.id) + 1) * 0x9e3779b97f4a7c15ull;
-      continue;
+      if (w_lod >= 1) continue;
+      lod_signature += (static_cast<std::uint64_t>(c.id) + 1) * 0xc2b2ae3d27d4eb4full;  // and its sprites
     }
     for (std::uint32_t k = 0; k < c.sprites.size(); ++k) {
-      const double alpha = alpha_of(k);
+      const double alpha = alpha_of(k) * (1 - w_lod);
       if (alpha <= 0) continue;
       pos.push_back(c.centre + glm::dvec3(c.sprites[k].offset));
       items.push_back({&c, &c.sprites[k], k, alpha});

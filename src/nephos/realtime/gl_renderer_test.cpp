@@ -145,9 +145,9 @@ TEST(SpriteRendererGl, SingleSpriteLevelOfDetailFarAway) {
   const double lod_m = 12000;
   std::size_t expected = 0, far = 0;
   for (const SpriteCloud& c : field.clouds()) {
-    const bool is_far = glm::length(c.centre - eye) > lod_m;
-    far += is_far;
-    expected += is_far ? 1 : c.sprites.size();
+    const double d = glm::length(c.centre - eye);
+    far += d > lod_m;
+    expected += CloudField::sprites_to_draw(c, d, lod_m);  // both across 11.4-12.6 km
   }
   ASSERT_GT(far, 10u);
   EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());  // default: off
@@ -162,6 +162,35 @@ TEST(SpriteRendererGl, SingleSpriteLevelOfDetailFarAway) {
   renderer.set_single_sprite_distance(0);
   EXPECT_EQ(renderer.draw(field, cam, sun, true, false).sprites, field.sprite_count());
   EXPECT_THROW(renderer.set_single_sprite_distance(-1), ValueError);
+}
+
+TEST(SpriteRendererGl, LevelOfDetailDissolvesWithoutAPop) {
+  // A cloud ahead at distance D: with the LOD distance at D / 1.1 it is its single sprite, at D
+  // / 0.9 its sprites, and the two frames differ (by more than 30 levels somewhere). Across D a
+  // 10 m change of the LOD distance changes the cloud's two weights by 10 m / (0.1 D), at most
+  // 0.01 (D > 10 km), so no channel may move by more than 0.01 x 255 for each of the two, plus
+  // one level of rounding: allowed 6. A switch at D (before 2026-11-27) moved channels by up to
+  // 57 levels at this step (measured).
+  const glm::dvec3 eye{0, 0, 2400};
+  const CloudField field(recipe_from_code(parse_weather_code("d300")), 5, eye);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera cam{eye, {1, 0, -0.05}, {0, 0, 1}, 60};
+  double dist = 0;  // the nearest cloud ahead beyond 10 km, within 20 degrees of the view's axis
+  for (const SpriteCloud& c : field.clouds()) {
+    const glm::dvec3 r = c.centre - eye;
+    const double d = glm::length(r);
+    if (d > 10000 && std::abs(std::atan2(r.y, r.x)) < 20 * M_PI / 180 && (dist == 0 || d < dist)) dist = d;
+  }
+  ASSERT_GT(dist, 0) << "no cloud ahead";
+  SpriteRenderer renderer(320, 180, 5);
+  auto frame_at = [&](double lod_m) {
+    renderer.set_single_sprite_distance(lod_m);
+    renderer.draw(field, cam, sun, true, false);
+    return renderer.read_pixels();
+  };
+  EXPECT_GT(frame_diff(frame_at(dist / 1.1), frame_at(dist / 0.9), 30).over, 0u) << "the cloud is in view";
+  const FrameDiff step = frame_diff(frame_at(dist - 5), frame_at(dist + 5), 6);
+  EXPECT_EQ(step.over, 0u) << "largest difference " << step.max;
 }
 
 TEST(SpriteRendererGl, ImpostorsHoldTheSpritesBeyondTheRingNotWholeClouds) {
