@@ -298,11 +298,7 @@ TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
   whole.save(dir / "whole.bin");
   WaterModel::create_checkpoint(dir / "gathered.bin", g, p, whole.steps_done());
   for (int r = 2; r >= 0; --r) slabs[static_cast<std::size_t>(r)].write_owned(dir / "gathered.bin");
-  auto bytes = [](const std::filesystem::path& f) {
-    std::ifstream is(f, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(is), {});
-  };
-  EXPECT_EQ(bytes(dir / "whole.bin"), bytes(dir / "gathered.bin"));
+  EXPECT_EQ(test_support::file_bytes(dir / "whole.bin"), test_support::file_bytes(dir / "gathered.bin"));
   EXPECT_EQ(WaterModel::checkpoint_grid(dir / "whole.bin").ny, g.ny);
   for (int r = 0; r < 3; ++r) {
     const WaterModel loaded = WaterModel::load_slab(dir / "whole.bin", cuts[r], cuts[r + 1]);
@@ -313,7 +309,7 @@ TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
   if (GetParam() == Storage::fp32) {
     // A CK2 file (the previous format: no storage parameter, so its populations start 8 bytes
     // earlier) still loads, whole and as slabs.
-    std::string ck2 = bytes(dir / "whole.bin");
+    std::string ck2 = test_support::file_bytes(dir / "whole.bin");
     ck2.replace(0, 14, "NEPHOS-LBM-CK2");
     ck2.erase(16 + 4 * 8 + 18 * 8, 8);
     std::ofstream(dir / "ck2.bin", std::ios::binary) << ck2;
@@ -427,11 +423,7 @@ TEST(WaterModel, ACheckpointStoresEveryNanAsTheOneQuietNan) {
   WaterModel m(g, WaterModelParams{});
   m.initialise_uniform(0.3, 0.5, 0.01, 7);
   m.save(path);
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = test_support::file_bytes(path);
   const std::size_t header = 16 + 4 * 8 + 19 * 8, cells = g.cells();
   auto at = [&](int c, int i, std::size_t cell) {
     return header + 4 * ((static_cast<std::size_t>(c) * 19 + i) * cells + cell);
@@ -449,12 +441,7 @@ TEST(WaterModel, ACheckpointStoresEveryNanAsTheOneQuietNan) {
   WaterModel::create_checkpoint(slabs, g, blown.params(), blown.steps_done());
   for (const auto& [y0, y1] : {std::pair{5, 8}, std::pair{0, 5}})
     WaterModel::load_slab(path, y0, y1).write_owned(slabs);
-  std::string saved, written;
-  {
-    std::ifstream a(again, std::ios::binary), b(slabs, std::ios::binary);
-    saved.assign(std::istreambuf_iterator<char>(a), {});
-    written.assign(std::istreambuf_iterator<char>(b), {});
-  }
+  const std::string saved = test_support::file_bytes(again), written = test_support::file_bytes(slabs);
   // The first byte at which two files differ (npos: none), a short failure message for 1 MiB.
   auto first_difference = [](const std::string& a, const std::string& b) {
     const auto [pa, pb] = std::mismatch(a.begin(), a.end(), b.begin(), b.end());
@@ -484,11 +471,7 @@ TEST(WaterModel, CheckpointErrors) {
   // a negative lattice edge or step are each a FormatError, not a model that runs into NaN.
   WaterModel m(Grid3{8, 8, 8}, WaterModelParams{});
   m.save(path);
-  std::string good;
-  {
-    std::ifstream in(path, std::ios::binary);
-    good.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  const std::string good = test_support::file_bytes(path);
   const std::size_t params_at = 16 + 4 * 8;  // magic, (nx, ny, nz, step), then the parameters
   auto damaged = [&](std::size_t at, auto value) {
     std::string bytes = good;

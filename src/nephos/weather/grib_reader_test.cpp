@@ -296,10 +296,7 @@ TEST(MultiTimeGrib, ReadsTheFirstValidTimeAloneOrEveryTime) {
   };
   const auto tmp = test_support::temp_path("multi_time");
   std::filesystem::create_directories(tmp);
-  auto bytes = [](const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
+  const auto bytes = test_support::file_bytes;
   for (const bool a_first : {true, false}) {
     const auto both = tmp / (a_first ? "ab.grib2" : "ba.grib2");
     std::ofstream(both, std::ios::binary) << (a_first ? bytes(a_path) + bytes(b_path) : bytes(b_path) + bytes(a_path));
