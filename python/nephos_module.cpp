@@ -295,10 +295,8 @@ class Flight {
                   "the altitude [ft]");
     require_range(speed_kt, 0, realtime::max_speed_kt, "speed_kt", "the ground speed [kt]");
     require_range(lod_km, 0, realtime::max_lod_km, "lod_km", "the level-of-detail distance [km] (0: off)");
-    if (!(impostor_radius_km > 0 && impostor_radius_km <= realtime::max_impostor_radius_km))
-      throw ValueError(fmt::format("the impostor ring radius [km] must be in (0, {:g}], got {:g}",
-                                   realtime::max_impostor_radius_km, impostor_radius_km),
-                       {.key = "impostor_radius_km"});
+    require_range_above(impostor_radius_km, 0, realtime::max_impostor_radius_km, "impostor_radius_km",
+                        "the impostor ring radius [km]");
     if (background != "sky" && background != "transparent")
       throw ValueError("expected \"sky\" or \"transparent\", got '" + background + "'", {.key = "background"});
     transparent_ = background == "transparent";

@@ -80,10 +80,8 @@ std::pair<double, double> checked_flight(const FlyOptions& o) {
   require_range(o.altitude_ft, realtime::min_altitude_ft, realtime::max_altitude_ft, "--altitude", "the altitude [ft]");
   require_range(o.speed_kt, 0, realtime::max_speed_kt, "--speed", "the ground speed [kt]");
   require_range(o.lod_km, 0, realtime::max_lod_km, "--lod-km", "the level-of-detail distance [km] (0: off)");
-  if (!(o.impostor_radius_km > 0 && o.impostor_radius_km <= realtime::max_impostor_radius_km))
-    throw ValueError(fmt::format("the impostor ring radius [km] must be in (0, {:g}], got {:g}",
-                                 realtime::max_impostor_radius_km, o.impostor_radius_km),
-                     {.key = "--impostor-radius-km"});
+  require_range_above(o.impostor_radius_km, 0, realtime::max_impostor_radius_km, "--impostor-radius-km",
+                      "the impostor ring radius [km]");
   return {pos[0], pos[1]};
 }
 

@@ -33,6 +33,11 @@ void require_range(double value, double lo, double hi, const std::string& key, c
     throw ValueError(fmt::format("{} must be in [{:g}, {:g}], got {:g}", what, lo, hi, value), {.key = key});
 }
 
+void require_range_above(double value, double lo, double hi, const std::string& key, const std::string& what) {
+  if (!(value > lo && value <= hi))
+    throw ValueError(fmt::format("{} must be in ({:g}, {:g}], got {:g}", what, lo, hi, value), {.key = key});
+}
+
 double physical_memory_bytes() {
   return static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGE_SIZE));
 }

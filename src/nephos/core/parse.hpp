@@ -15,6 +15,8 @@ std::vector<double> parse_numbers(const std::string& text, std::size_t count, co
 /// Throws ValueError naming `key` unless lo <= value <= hi (NaN fails); `what` names the
 /// quantity with its unit, e.g. "latitude [deg]".
 void require_range(double value, double lo, double hi, const std::string& key, const std::string& what);
+/// The same for lo < value <= hi (a bound that may not be reached, e.g. a radius above 0).
+void require_range_above(double value, double lo, double hi, const std::string& key, const std::string& what);
 
 /// Throws ResourceError naming `key` when `bytes` exceeds this machine's physical memory: what a
 /// command checks before it allocates, so that a size too large for the machine gets a clear

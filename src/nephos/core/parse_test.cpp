@@ -39,6 +39,21 @@ TEST(RequireRange, ClosedIntervalAndNaNFails) {
   }
 }
 
+TEST(RequireRange, AboveExcludesItsLowerBound) {
+  EXPECT_NO_THROW(require_range_above(1e-9, 0, 10, "--impostor-radius-km", "radius [km]"));
+  EXPECT_NO_THROW(require_range_above(10, 0, 10, "--impostor-radius-km", "radius [km]"));
+  EXPECT_THROW(require_range_above(0, 0, 10, "--impostor-radius-km", "radius [km]"), ValueError);
+  EXPECT_THROW(require_range_above(10.5, 0, 10, "--impostor-radius-km", "radius [km]"), ValueError);
+  EXPECT_THROW(require_range_above(std::nan(""), 0, 10, "--impostor-radius-km", "radius [km]"), ValueError);
+  try {
+    require_range_above(-3, 0, 10, "--impostor-radius-km", "radius [km]");
+    FAIL();
+  } catch (const ValueError& e) {
+    EXPECT_EQ(e.context().key, "--impostor-radius-km");
+    EXPECT_NE(std::string(e.what()).find("radius [km] must be in (0, 10], got -3"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RequireMemory, MoreThanThePhysicalMemoryIsAResourceError) {
   const double have = physical_memory_bytes();
   EXPECT_GT(have, 64.0 * (1 << 20));  // any machine that runs the tests has more than 64 MiB
