@@ -1093,8 +1093,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     };
     // Level of detail: across its distance the cloud's one sprite and its sprites cross-dissolve
     // (CloudField::lod_weight), so that a cloud does not change at once from one to the other.
-    const double lod = m.single_sprite_distance_m;
-    const double w_lod = held || !(lod > 0) ? 0.0 : CloudField::lod_weight(glm::length(c.centre - cam.position), lod);
+    const double w_lod =
+        held ? 0.0 : CloudField::lod_weight(glm::length(c.centre - cam.position), m.single_sprite_distance_m);
     if (w_lod > 0) {
       pos.push_back(c.centre + glm::dvec3(c.lod.offset));
       items.push_back({&c, &c.lod, lod_index, c.opacity * w_lod});
