@@ -19,8 +19,7 @@
 namespace nephos::realtime {
 namespace {
 
-constexpr int impostor_size = 256;   // MSFS 2004: eight 256 x 256 impostors
-constexpr int crossfade_frames = 8;  // frames of the crossfade between two impostor sets
+constexpr int impostor_size = 256;  // MSFS 2004: eight 256 x 256 impostors
 // A ring vertex: the quad corner (the octagon mesh's 3 floats) and the impostor quad's 17
 // instance floats, all per vertex, so that every sector's trimmed columns go in one draw.
 constexpr std::size_t ring_vertex_floats = 20;
@@ -888,7 +887,7 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       stats.impostor_updates = 1;
       if (++m.next_sector == 8) m.next_sector = -1, m.crossfade = 0;
     } else if (m.crossfade >= 0) {
-      back_weight = (m.crossfade + 1.0) / (crossfade_frames + 1.0);
+      back_weight = (m.crossfade + 1.0) / (crossfade_frames + 1.0);  // 1 / (N + 1) ... N / (N + 1)
       ++m.generation;
       if (++m.crossfade > crossfade_frames) {  // the new set takes over
         m.front = back;

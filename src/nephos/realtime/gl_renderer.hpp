@@ -71,6 +71,10 @@ SpriteTrim sprite_trim(const std::uint8_t* rgba, int size);
 
 class SpriteRenderer {
  public:
+  /// Frames over which a new impostor set crossfades with the old one (0.53 s at 30 frames per
+  /// second). MSFS 2004 crossfades without saying how long; 16 steps of 1/17 keep every
+  /// frame-to-frame change of a d400 flight small (docs/realtime.md, "The ring's crossfade").
+  static constexpr int crossfade_frames = 16;
   /// Creates a headless EGL context of `api` and an off-screen framebuffer. Throws IoError if
   /// EGL or the API is not available (the message says which call failed).
   SpriteRenderer(int width, int height, std::uint64_t seed, GlApi api = GlApi::gles30);
@@ -94,7 +98,7 @@ class SpriteRenderer {
   /// the set of sprites changed). With `impostors`, clouds beyond the ring radius are drawn
   /// through the octagonal impostor ring of MSFS 2004 (see ImpostorRing): eight 256 x 256
   /// textures around the camera, rebuilt one per frame when the camera has moved past the
-  /// thresholds, then crossfaded over 8 frames.
+  /// thresholds, then crossfaded over crossfade_frames frames.
   FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort, bool impostors = true);
   /// The impostor ring's parameters and state (radius, thresholds; valid after a draw).
   const ImpostorRing& impostor_ring() const;

@@ -285,6 +285,50 @@ TEST(SpriteRendererGl, CrossfadeDrawsTheSpritesNotHeldByBothSets) {
   EXPECT_EQ(fade.sprites, not_both);
 }
 
+TEST(SpriteRendererGl, CrossfadeChangesTheFrameInSmallEvenSteps) {
+  // The camera climbs 200 m (past the 2 % threshold: 160 m of 8 km) and then holds still, so
+  // that only the ring changes the frame. Both sets hold the same sprites (a climb moves no
+  // cloud across the ring radius or the 10,000 ft rule), so the two sets' images are the only
+  // fading layers: old A at weight 1 - w under new B at w, w = k / (N + 1). Over a background D
+  // the pixel is F(w) = w B + (1 - w b) G, G = (1 - w) A + (1 - (1 - w) a) D (premultiplied,
+  // values in [0, 1]), and |dF/dw| = |B - b G + (1 - w b)(a D - A)| <= 1 + 1; the near sprites
+  // drawn over it only scale the change down. So a step changes a channel by at most
+  // 2 * 255 / (N + 1) levels, plus the rounding of llvmpipe's 8-bit blends (a level each way
+  // per blend, two blends).
+  const glm::dvec3 eye0{0, 0, 2400}, eye1{0, 0, 2600};
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 9, eye0);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  SpriteRenderer renderer(160, 96, 9);
+  const FrameStats first = renderer.draw(field, Camera{eye0, {1, 0, -0.1}, {0, 0, 1}, 60}, sun, true, true);
+  const Camera climbed{eye1, {1, 0, -0.1}, {0, 0, 1}, 60};
+  constexpr int n = SpriteRenderer::crossfade_frames;
+  const int bound = 2 * 255 / (n + 1) + 2;
+  std::vector<std::uint8_t> previous;
+  int changed = 0, largest = 0;
+  for (int f = 1; f <= 8 + n + 8; ++f) {
+    const FrameStats st = renderer.draw(field, climbed, sun, true, true);
+    EXPECT_EQ(st.impostor_updates, f <= 8 ? 1 : 0) << "frame " << f;
+    EXPECT_EQ(st.sprites, first.sprites) << "frame " << f << ": the sets hold the same sprites";
+    auto pixels = renderer.read_pixels();
+    if (f > 1) {
+      const FrameDiff d = frame_diff(previous, pixels, 0);
+      // The old set alone while the new one is rendered (frames 1-8), then N crossfade frames
+      // and the frame the new set takes over, then the new set alone.
+      const bool crossfading = f > 8 && f <= 8 + n + 1;
+      if (crossfading) {
+        EXPECT_GT(d.max, 0) << "frame " << f;
+        EXPECT_LE(d.max, bound) << "frame " << f;
+      } else {
+        EXPECT_EQ(d.max, 0) << "frame " << f;
+      }
+      changed += d.max > 0, largest = std::max(largest, d.max);
+    }
+    previous = std::move(pixels);
+  }
+  EXPECT_EQ(changed, n + 1);
+  EXPECT_GT(largest, 2) << "the two sets' images differ";
+}
+
 TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
   // An altostratus sheet is drawn around the camera, but its pattern must not travel with the
   // aircraft: moving the camera by one texture tile (3 km) gives the same frame (the tiling is
