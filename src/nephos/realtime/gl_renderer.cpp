@@ -272,7 +272,7 @@ struct SpriteRenderer::Impl {
   std::uint64_t lod_signature = 0;                      // the clouds drawn as one sprite last frame
 
   // Impostor ring (MSFS 2004): two sets of 8 layers of 256x256, the front one drawn, the back
-  // one being rebuilt a sector per frame, then crossfaded.
+  // one being rebuilt over several frames (a budget of sprites each), then crossfaded.
   // The sets are only sampled: each impostor is rendered into one scratch target, read back
   // and copied into its set's layer (llvmpipe samples a texture that was filled by an upload
   // and is attached to no framebuffer faster: docs/PERFORMANCE.md).
@@ -280,7 +280,13 @@ struct SpriteRenderer::Impl {
   int front = 0;
   ImpostorRing ring;
   glm::dvec3 back_centre{0.0};
-  int next_sector = -1;                      // sector of the back set to render this frame; -1: not building
+  int next_sector = -1;  // sector of the back set being rendered; -1: not building
+  // The impostor being rendered into the scratch target, a part per frame within the budget of
+  // sprites: its instances, back to front from the ring centre, and how many are drawn so far.
+  std::vector<float> sector_instances;
+  std::size_t sector_drawn = 0;
+  bool sector_begun = false;
+  std::size_t impostor_sprite_budget = SpriteRenderer::default_impostor_sprites_per_frame;
   int crossfade = -1;                        // frame of the crossfade; -1: none
   std::vector<SpriteKey> captured[2];        // sprites in each set, sorted
   std::array<bool, 8> sector_empty[2] = {};  // nothing was rendered into the sector
@@ -716,12 +722,11 @@ SpriteRenderer::Target SpriteRenderer::screen(const Camera& cam, const SunLight&
   return t;
 }
 
-void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field,
-                                     const SunLight& sun, const Camera& cam) {
-  auto& m = *impl_;
+SpriteRenderer::Target SpriteRenderer::impostor_target(int set, int sector, const SunLight& sun,
+                                                       const Camera& cam) const {
+  const auto& m = *impl_;
   const double a = sector * M_PI / 4;  // 0 = east, counter-clockwise (ImpostorRing::sector)
-  Target t;
-  t.camera.position = centre;
+  Target t;                            // at the ring centre, which is the origin of the instances' positions
   t.camera.forward = {std::cos(a), std::sin(a), 0};
   t.camera.up = {0, 0, 1};
   t.camera.far_m = cam.far_m;
@@ -732,7 +737,15 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   t.tan_y_high = m.tan_high[set][static_cast<std::size_t>(sector)];
   t.clear = {0, 0, 0, 0};
   t.sun = sun.direction;
-  // The captured sprites that overlap this 45-degree sector, back to front from the ring centre.
+  return t;
+}
+
+void SpriteRenderer::begin_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field,
+                                    const SunLight& sun) {
+  auto& m = *impl_;
+  // The captured sprites that overlap this 45-degree sector, back to front from the ring centre,
+  // shaded now: the parts drawn in later frames show the clouds as they were at this frame (the
+  // clouds drift with the air, as the ring's centre does, so their offsets from it hold).
   std::vector<glm::dvec3> pos;
   std::vector<std::pair<const SpriteCloud*, const Sprite*>> items;
   std::vector<char> held;
@@ -746,14 +759,31 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
     }
   }
   const auto order = back_to_front(pos, centre);
-  m.sector_empty[set][static_cast<std::size_t>(sector)] = order.empty();
-  m.buffer.clear();
+  m.sector_instances.clear();
   for (std::size_t k : order) {
     const Shade sh = shade_sprite(*items[k].first, *items[k].second, sun);
-    push_instance(m.buffer, pos[k] - centre, items[k].second->size_m, sh.colour, items[k].first->opacity,
+    push_instance(m.sector_instances, pos[k] - centre, items[k].second->size_m, sh.colour, items[k].first->opacity,
                   sprite_layer(*items[k].first, *items[k].second), 0.0, sh.diffuse, glm::dvec3(0.0), 1.0);
   }
-  submit(t, 0, order.size(), m.texture, true, Shading::bent_normal);
+  m.sector_drawn = 0;
+}
+
+std::size_t SpriteRenderer::continue_impostor(int set, int sector, std::size_t budget, const SunLight& sun,
+                                              const Camera& cam, bool& complete) {
+  auto& m = *impl_;
+  const std::size_t total = m.sector_instances.size() / 17;
+  const std::size_t count = std::min(budget, total - m.sector_drawn);
+  const bool first = m.sector_drawn == 0;
+  if (count > 0) {
+    // Each part blends over the parts before it in the scratch target, which keeps what they
+    // drew between frames: the image is the one a single draw of every sprite would give.
+    m.buffer.assign(m.sector_instances.begin() + static_cast<std::ptrdiff_t>(17 * m.sector_drawn),
+                    m.sector_instances.begin() + static_cast<std::ptrdiff_t>(17 * (m.sector_drawn + count)));
+    submit(impostor_target(set, sector, sun, cam), 0, count, m.texture, first, Shading::bent_normal);
+    m.sector_drawn += count;
+  }
+  complete = m.sector_drawn == total;
+  if (!complete) return count;
   // The columns that hold clouds, for the ring's draw (set_trim_ring). A pixel of the ring
   // samples the texture bilinearly, so a column's span covers the texels whose footprint
   // reaches into it (one texel beyond each side) and half a texel more above and below; outside
@@ -762,9 +792,11 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
   // texels then go into the set's layer.
   auto& spans = m.spans[set][static_cast<std::size_t>(sector)];
   spans.fill({});
-  if (order.empty()) return;
+  m.sector_empty[set][static_cast<std::size_t>(sector)] = true;
+  if (total == 0) return count;
   static thread_local std::vector<std::uint8_t> rgba;
   rgba.resize(4 * static_cast<std::size_t>(impostor_size) * impostor_size);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.imp_fbo);
   glReadPixels(0, 0, impostor_size, impostor_size, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());  // rows from the bottom
   glBindTexture(GL_TEXTURE_2D_ARRAY, m.imp_tex[set]);
   glTexSubImage3D(GL_TEXTURE_2D_ARRAY, 0, 0, 0, sector, impostor_size, impostor_size, 1, GL_RGBA, GL_UNSIGNED_BYTE,
@@ -790,6 +822,7 @@ void SpriteRenderer::render_impostor(int set, int sector, const glm::dvec3& cent
     spans[static_cast<std::size_t>(c)] = {quad_y(lo - 1), quad_y(hi + 2)};
   }
   m.sector_empty[set][static_cast<std::size_t>(sector)] = !any;
+  return count;
 }
 
 FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, const SunLight& sun, bool sort,
@@ -871,7 +904,12 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     m.next_sector = m.crossfade = -1;
   } else if (!m.ring.valid) {  // first frame: the whole front set at once
     capture(m.front, cam.position);
-    for (int k = 0; k < 8; ++k) render_impostor(m.front, k, cam.position, field, sun, cam);
+    for (int k = 0; k < 8; ++k) {
+      begin_impostor(m.front, k, cam.position, field, sun);
+      bool complete = false;
+      stats.impostor_sprites += continue_impostor(m.front, k, SIZE_MAX, sun, cam, complete);
+    }
+    m.sector_begun = false;
     stats.impostor_updates = 8;
     m.ring.rebuilt_at(cam_air);
     ++m.generation;
@@ -881,11 +919,28 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       m.back_centre = cam_air;
       capture(back, cam.position);
       m.next_sector = 0;
+      m.sector_begun = false;
     }
     if (m.next_sector >= 0) {
-      render_impostor(back, m.next_sector, m.back_centre + air, field, sun, cam);
-      stats.impostor_updates = 1;
-      if (++m.next_sector == 8) m.next_sector = -1, m.crossfade = 0;
+      // The new set's sprites go into its impostors a budget of them per frame (MSFS 2004's
+      // software path: "one 16-square-kilometer cloud block per frame"), a sector ahead full of
+      // clouds over several frames, a few nearly empty ones in one.
+      std::size_t budget = m.impostor_sprite_budget;
+      while (m.next_sector >= 0) {
+        if (!m.sector_begun) {
+          begin_impostor(back, m.next_sector, m.back_centre + air, field, sun);
+          m.sector_begun = true;
+        }
+        bool complete = false;
+        const std::size_t drawn = continue_impostor(back, m.next_sector, budget, sun, cam, complete);
+        ++stats.impostor_updates;
+        stats.impostor_sprites += drawn;
+        budget -= drawn;
+        if (!complete) break;
+        m.sector_begun = false;
+        if (++m.next_sector == 8) m.next_sector = -1, m.crossfade = 0;
+        if (budget == 0) break;
+      }
     } else if (m.crossfade >= 0) {
       back_weight = (m.crossfade + 1.0) / (crossfade_frames + 1.0);  // 1 / (N + 1) ... N / (N + 1)
       ++m.generation;
@@ -1219,6 +1274,12 @@ void SpriteRenderer::set_first_layer_over_sky(bool over_sky) { impl_->first_laye
 void SpriteRenderer::set_layer_views(LayerViews views) { impl_->layer_views = views; }
 
 void SpriteRenderer::set_trim_ring(bool trim) { impl_->trim_ring = trim; }
+
+void SpriteRenderer::set_impostor_sprites_per_frame(std::size_t sprites) {
+  if (sprites < 1)
+    throw ValueError("the impostors' sprites per frame must be >= 1", {.key = "impostor_sprites_per_frame"});
+  impl_->impostor_sprite_budget = sprites;
+}
 
 void SpriteRenderer::set_background(Background background) {
   impl_->transparent = background == Background::transparent;

@@ -37,10 +37,11 @@ struct PointSprites {
 };
 
 struct FrameStats {
-  double milliseconds = 0;         ///< CPU time around the frame including glFinish
-  std::size_t sprites = 0;         ///< sprites drawn individually (not through impostors)
-  int impostor_updates = 0;        ///< impostor textures re-rendered this frame (8 on the first frame)
-  std::size_t locked_sprites = 0;  ///< sprites whose facing is locked (camera inside them)
+  double milliseconds = 0;   ///< CPU time around the frame including glFinish
+  std::size_t sprites = 0;   ///< sprites drawn individually (not through impostors)
+  int impostor_updates = 0;  ///< impostor textures rendered into this frame, whole or in part (8 on the first frame)
+  std::size_t impostor_sprites = 0;  ///< sprites rendered into impostor textures this frame
+  std::size_t locked_sprites = 0;    ///< sprites whose facing is locked (camera inside them)
   /// The area of the impostor quads the ring's draw covers, as a fraction of the quads' whole
   /// area (each impostor trimmed to the columns of its texture that hold clouds; 1 untrimmed,
   /// 0 without a ring).
@@ -97,8 +98,8 @@ class SpriteRenderer {
   /// Draws the field's clouds; `sort` re-sorts back to front (else the previous order, unless
   /// the set of sprites changed). With `impostors`, clouds beyond the ring radius are drawn
   /// through the octagonal impostor ring of MSFS 2004 (see ImpostorRing): eight 256 x 256
-  /// textures around the camera, rebuilt one per frame when the camera has moved past the
-  /// thresholds, then crossfaded over crossfade_frames frames.
+  /// textures around the camera, rebuilt over the following frames (set_impostor_sprites_per_frame)
+  /// when the camera has moved past the thresholds, then crossfaded over crossfade_frames frames.
   FrameStats draw(const CloudField& field, const Camera& camera, const SunLight& sun, bool sort, bool impostors = true);
   /// The impostor ring's parameters and state (radius, thresholds; valid after a draw).
   const ImpostorRing& impostor_ring() const;
@@ -138,6 +139,12 @@ class SpriteRenderer {
   /// be composited over a map or terrain ("over": frame + (1 - alpha) behind; docs/realtime.md).
   enum class Background { sky, transparent };
   void set_background(Background background);
+  /// Sprites rendered into the new impostor set per frame while it is built, so that a sector
+  /// full of clouds is spread over several frames instead of lengthening one (MSFS 2004 renders
+  /// into its impostors "one 16-square-kilometer cloud block per frame" on its software path).
+  /// At least 1; the first frame's ring is rendered whole. The images do not depend on it.
+  void set_impostor_sprites_per_frame(std::size_t sprites);
+  static constexpr std::size_t default_impostor_sprites_per_frame = 128;
   /// Columns per impostor for set_trim_ring (8 texels each).
   static constexpr int ring_columns = 32;
   /// Draws point sprites (one instanced draw call), in their given order.
@@ -189,9 +196,16 @@ class SpriteRenderer {
   /// blend state, the program of `shading` with its uniforms (sprite trims if `trimmed`) and
   /// `texture`.
   void begin_pass(const Target& target, unsigned texture, bool clear, Shading shading, bool over_sky, bool trimmed);
-  /// Renders the captured clouds of impostor set `set` into its sector `sector` (0 = east, CCW).
-  void render_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun,
-                       const Camera& camera);
+  /// The frustum of impostor `sector` (0 = east, CCW) of set `set`, from the ring centre.
+  Target impostor_target(int set, int sector, const SunLight& sun, const Camera& camera) const;
+  /// Starts rendering the captured clouds of impostor set `set` into its sector `sector` from
+  /// the ring centre `centre`: gathers, sorts and shades the sprites.
+  void begin_impostor(int set, int sector, const glm::dvec3& centre, const CloudField& field, const SunLight& sun);
+  /// Renders the next `budget` of them (at most) into the scratch target; once all are drawn
+  /// (`complete`), copies the image into the set's layer and finds its columns' spans. Returns
+  /// how many sprites it drew.
+  std::size_t continue_impostor(int set, int sector, std::size_t budget, const SunLight& sun, const Camera& camera,
+                                bool& complete);
   void create_context();
   void init_gl(std::uint64_t seed);
   std::unique_ptr<Impl> impl_;
