@@ -902,7 +902,8 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
     if (m.ring.valid) ++m.generation;
     m.ring.valid = false;
     m.next_sector = m.crossfade = -1;
-  } else if (!m.ring.valid) {  // first frame: the whole front set at once
+  } else if (!m.ring.valid) {          // first frame (or a new radius): the whole front set at once
+    m.next_sector = m.crossfade = -1;  // a set being built for the old ring is dropped
     capture(m.front, cam.position);
     for (int k = 0; k < 8; ++k) {
       begin_impostor(m.front, k, cam.position, field, sun);

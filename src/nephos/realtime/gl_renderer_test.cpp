@@ -366,6 +366,26 @@ TEST(SpriteRendererGl, ImpostorSpriteBudgetSpreadsTheWorkNotTheImage) {
   EXPECT_THROW(r.set_impostor_sprites_per_frame(0), ValueError);
 }
 
+TEST(SpriteRendererGl, NewRingRadiusDropsTheSetBeingBuilt) {
+  // A new radius rebuilds the whole ring at once; a set that was being built for the old ring
+  // is dropped, not finished and crossfaded in over the new one.
+  const glm::dvec3 eye0{0, 0, 2400}, eye1{1300, 0, 2400};
+  const CloudField field(recipe_from_code(parse_weather_code("d400")), 9, eye0);
+  const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
+  const Camera moved{eye1, {1, 0, 0}, {0, 0, 1}, 60};
+  SpriteRenderer renderer(64, 48, 9);
+  renderer.set_impostor_sprites_per_frame(16);
+  renderer.draw(field, Camera{eye0, {1, 0, 0}, {0, 0, 1}, 60}, sun, true, true);
+  ASSERT_GT(renderer.draw(field, moved, sun, true, true).impostor_updates, 0);  // building
+  renderer.set_impostor_radius(6000);
+  EXPECT_EQ(renderer.draw(field, moved, sun, true, true).impostor_updates, 8);
+  const auto rebuilt = renderer.read_pixels();
+  for (int f = 0; f < 40; ++f) {
+    EXPECT_EQ(renderer.draw(field, moved, sun, true, true).impostor_updates, 0) << "frame " << f;
+    EXPECT_EQ(frame_diff(rebuilt, renderer.read_pixels(), 0).max, 0) << "frame " << f;
+  }
+}
+
 TEST(SpriteRendererGl, FlatLayerPatternIsFixedToTheAir) {
   // An altostratus sheet is drawn around the camera, but its pattern must not travel with the
   // aircraft: moving the camera by one texture tile (3 km) gives the same frame (the tiling is
