@@ -726,7 +726,8 @@ SpriteRenderer::Target SpriteRenderer::impostor_target(int set, int sector, cons
                                                        const Camera& cam) const {
   const auto& m = *impl_;
   const double a = sector * M_PI / 4;  // 0 = east, counter-clockwise (ImpostorRing::sector)
-  Target t;                            // at the ring centre, which is the origin of the instances' positions
+  // At the ring centre, which is the origin of the instances' positions (begin_impostor).
+  Target t;
   t.camera.forward = {std::cos(a), std::sin(a), 0};
   t.camera.up = {0, 0, 1};
   t.camera.far_m = cam.far_m;
