@@ -364,6 +364,7 @@ class Flight {
     d["frame_ms"] = last_.milliseconds;
     d["sprites"] = last_.sprites;
     d["impostor_updates"] = last_.impostor_updates;
+    d["impostor_sprites"] = last_.impostor_sprites;
     return d;
   }
   int frames_flown() const { return flight_->frames_flown(); }
@@ -568,7 +569,7 @@ PYBIND11_MODULE(nephos, m) {
       .def("change_weather", &Flight::change_weather, py::arg("code"), py::arg("at_s"),
            "From `at_s` seconds of flight on, the weather is `code`: clouds form and dissipate.")
       .def_property_readonly("stats", &Flight::stats,
-                             "The last frame's {frame_ms (CPU time around glFinish), sprites, impostor_updates}.")
+                             "The last frame's {frame_ms (CPU time around glFinish), sprites, impostor_updates, impostor_sprites}.")
       .def_property_readonly("frames_flown", &Flight::frames_flown)
       .def_property_readonly("clouds", &Flight::clouds, "Sprite clouds in the field.")
       .def_property_readonly("gl_renderer", &Flight::gl_renderer);

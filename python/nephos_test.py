@@ -277,6 +277,9 @@ class Flight(unittest.TestCase):
                 self.assertEqual(frame.shape, (90, 160, 3))
                 self.assertTrue(np.array_equal(frame, read_png_rgb8(Path(d) / f"frame_{n:04d}.png")), n)
                 self.assertEqual(flight.stats["sprites"], int(rows[n].split(",")[2]), n)
+                self.assertEqual(flight.stats["impostor_updates"], int(rows[n].split(",")[3]), n)
+                # The first frame renders the whole ring; 10 frames fly 43 m, short of a new one.
+                self.assertEqual(flight.stats["impostor_sprites"] > 0, n == 0, n)
             self.assertEqual(flight.frames_flown, 10)
             other = nephos.Flight(code="d400", size=(160, 90), seed=6)
             self.assertFalse(np.array_equal(other.frame(), read_png_rgb8(Path(d) / "frame_0000.png")))
