@@ -568,8 +568,9 @@ PYBIND11_MODULE(nephos, m) {
            "background='transparent'; the pixels of `nephos fly`'s frame_NNNN.png.")
       .def("change_weather", &Flight::change_weather, py::arg("code"), py::arg("at_s"),
            "From `at_s` seconds of flight on, the weather is `code`: clouds form and dissipate.")
-      .def_property_readonly("stats", &Flight::stats,
-                             "The last frame's {frame_ms (CPU time around glFinish), sprites, impostor_updates, impostor_sprites}.")
+      .def_property_readonly(
+          "stats", &Flight::stats,
+          "The last frame's {frame_ms (CPU time around glFinish), sprites, impostor_updates, impostor_sprites}.")
       .def_property_readonly("frames_flown", &Flight::frames_flown)
       .def_property_readonly("clouds", &Flight::clouds, "Sprite clouds in the field.")
       .def_property_readonly("gl_renderer", &Flight::gl_renderer);

@@ -891,27 +891,28 @@ FrameStats SpriteRenderer::draw(const CloudField& field, const Camera& cam, cons
       m.tan_high[set][s] = hi[s] > lo[s] ? std::min(limit, hi[s] + 0.02) : limit;
     }
   };
-  // ---- Impostor ring upkeep: at most one sector rendered per frame once the ring exists.
+  // ---- Impostor ring upkeep: once the ring exists, a budget of sprites per frame goes into the
+  // new set while it is built.
   double back_weight = 0;  // crossfade weight of the back set
   if (impostors && m.ring.valid && m.band[m.front] != std::array<double, 2>{band_lo, band_hi}) {
     // The camera crossed a flat layer (or one formed or went): the sprites the impostors hold
     // are no longer those it may draw after the layers; all eight are made again now.
     m.ring.valid = false;
-    m.next_sector = m.crossfade = -1;
   }
   if (!impostors) {
     if (m.ring.valid) ++m.generation;
     m.ring.valid = false;
     m.next_sector = m.crossfade = -1;
-  } else if (!m.ring.valid) {          // first frame (or a new radius): the whole front set at once
-    m.next_sector = m.crossfade = -1;  // a set being built for the old ring is dropped
+  } else if (!m.ring.valid) {
+    // The first frame, a new radius or a flat layer crossed: the whole front set at once; a set
+    // being built for the old ring is dropped.
+    m.next_sector = m.crossfade = -1;
     capture(m.front, cam.position);
     for (int k = 0; k < 8; ++k) {
       begin_impostor(m.front, k, cam.position, field, sun);
       bool complete = false;
       stats.impostor_sprites += continue_impostor(m.front, k, SIZE_MAX, sun, cam, complete);
     }
-    m.sector_begun = false;
     stats.impostor_updates = 8;
     m.ring.rebuilt_at(cam_air);
     ++m.generation;
