@@ -90,7 +90,12 @@ int main(int argc, char** argv) {
     if (mode == "compare" && argc == 4) return compare(argv[2], argv[3]);
     if (mode == "bench" && argc >= 3 && argc <= 5) {
       bench::FlyBenchOptions o;
-      o.frames = argc > 3 ? std::stoi(argv[3]) : 600;
+      if (argc > 3) {
+        const std::string f = argv[3];
+        if (f.empty() || f.size() > 6 || f.find_first_not_of("0123456789") != std::string::npos || std::stoi(f) < 1)
+          throw ValueError("bench FRAMES: expected a whole number of frames from 1 to 999999, got '" + f + "'");
+        o.frames = std::stoi(f);
+      }
       o.tests = argc > 4 ? argv[4] : "ABCDE";
       o.plot = (std::filesystem::path(argv[2]) / "bench_fly.png").string();
       return bench::run_fly_bench(o, 1);

@@ -3,7 +3,8 @@
 # carried (scripts/gpu_kit.sh makes it): the realtime tests three times in a row, then (unless the
 # first argument is `tests`) frames to compare with llvmpipe's and `bench fly`'s matrix. Writes
 # to $OUT (the device tool's folder), else out/gpu. Back here, the frames against llvmpipe's:
-#   tar -C /tmp/gpu -xf frames.tar && LD_LIBRARY_PATH=.gpu/lib .gpu/nephos_gpu_check frames /tmp/cpu
+#   mkdir -p /tmp/gpu && tar -C /tmp/gpu -xf frames.tar
+#   LD_LIBRARY_PATH=.gpu/lib .gpu/nephos_gpu_check frames /tmp/cpu
 #   LD_LIBRARY_PATH=.gpu/lib .gpu/nephos_gpu_check compare /tmp/gpu /tmp/cpu
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.." || exit 1
