@@ -26,58 +26,65 @@ namespace {
 using namespace nephos;
 using namespace nephos::realtime;
 
-const char* const codes[] = {"d400", "d200"};
+// The frames `frames` makes and `compare` reads: d400 and d200, each API, with and without the ring.
+struct Case {
+  const char* code;
+  GlApi api;
+  bool impostors;
+  std::string file() const {
+    return std::string(code) + "_" + name(api) + (impostors ? "_ring" : "_every_sprite") + ".png";
+  }
+};
 
-std::string frame_name(const char* code, GlApi api, bool impostors) {
-  return std::string(code) + "_" + name(api) + (impostors ? "_ring" : "_every_sprite") + ".png";
+std::vector<Case> cases() {
+  std::vector<Case> all;
+  for (const char* code : {"d400", "d200"})
+    for (GlApi api : {GlApi::gles30, GlApi::gl33})
+      for (bool impostors : {true, false}) all.push_back({code, api, impostors});
+  return all;
 }
 
 int frames(const std::filesystem::path& dir) {
   std::filesystem::create_directories(dir);
   const SunLight sun = sun_light(UtcTime::parse("2024-06-21T10:00:00Z"), 48.0, 11.0);
   constexpr int n = 90;  // 3 s of flight: past the first frame's whole-ring build
-  for (const char* code : codes)
-    for (GlApi api : {GlApi::gles30, GlApi::gl33})
-      for (bool impostors : {true, false}) {
-        FlightParams params;
-        params.impostors = impostors;
-        StraightFlight flight(recipe_from_code(parse_weather_code(code)), 1, params);
-        SpriteRenderer renderer(1280, 720, 1, api);
-        renderer.set_single_sprite_distance(20000);  // nephos fly's default level of detail
-        double ms = 0;
-        for (int f = 0; f < n; ++f) ms += flight.next_frame(renderer, sun).milliseconds;
-        io::write_png(dir / frame_name(code, api, impostors), renderer.width(), renderer.height(), 4,
-                      straight_alpha(renderer.read_pixels()));
-        std::printf("%s %s %s: mean frame %.3f ms over %d frames; %s | %s\n", code, name(api),
-                    impostors ? "ring" : "every sprite", ms / n, n, renderer.gl_version().c_str(),
-                    renderer.gl_renderer().c_str());
-      }
+  for (const Case& c : cases()) {
+    FlightParams params;
+    params.impostors = c.impostors;
+    StraightFlight flight(recipe_from_code(parse_weather_code(c.code)), 1, params);
+    SpriteRenderer renderer(1280, 720, 1, c.api);
+    renderer.set_single_sprite_distance(20000);  // nephos fly's default level of detail
+    double ms = 0;
+    for (int f = 0; f < n; ++f) ms += flight.next_frame(renderer, sun).milliseconds;
+    io::write_png(dir / c.file(), renderer.width(), renderer.height(), 4, straight_alpha(renderer.read_pixels()));
+    std::printf("%s %s %s: mean frame %.3f ms over %d frames; %s | %s\n", c.code, name(c.api),
+                c.impostors ? "ring" : "every sprite", ms / n, n, renderer.gl_version().c_str(),
+                renderer.gl_renderer().c_str());
+  }
   return 0;
 }
 
 int compare(const std::filesystem::path& a, const std::filesystem::path& b) {
-  for (const char* code : codes)
-    for (GlApi api : {GlApi::gles30, GlApi::gl33})
-      for (bool impostors : {true, false}) {
-        const std::string file = frame_name(code, api, impostors);
-        int wa = 0, ha = 0, ca = 0, wb = 0, hb = 0, cb = 0;
-        const auto pa = io::read_png(a / file, wa, ha, ca), pb = io::read_png(b / file, wb, hb, cb);
-        if (wa != wb || ha != hb || ca != cb) throw ValueError(file + ": the two frames differ in size");
-        int largest = 0;
-        double sum = 0;
-        std::size_t over = 0;
-        for (std::size_t p = 0; p < pa.size(); p += static_cast<std::size_t>(ca)) {
-          int most = 0;
-          for (std::size_t k = 0; k < 3; ++k) {  // colour channels; the sky's alpha is 255 in both
-            const int d = std::abs(int{pa[p + k]} - int{pb[p + k]});
-            most = std::max(most, d), sum += d;
-          }
-          largest = std::max(largest, most), over += most > 2;
-        }
-        const double pixels = static_cast<double>(pa.size() / static_cast<std::size_t>(ca));
-        std::printf("%-28s largest %3d levels, mean %.3f, %.3f %% of the pixels more than 2 apart\n", file.c_str(),
-                    largest, sum / (3 * pixels), 100.0 * static_cast<double>(over) / pixels);
+  for (const Case& c : cases()) {
+    const std::string file = c.file();
+    int wa = 0, ha = 0, ca = 0, wb = 0, hb = 0, cb = 0;
+    const auto pa = io::read_png(a / file, wa, ha, ca), pb = io::read_png(b / file, wb, hb, cb);
+    if (wa != wb || ha != hb || ca != cb) throw ValueError(file + ": the two frames differ in size");
+    int largest = 0;
+    double sum = 0;
+    std::size_t over = 0;
+    for (std::size_t p = 0; p < pa.size(); p += static_cast<std::size_t>(ca)) {
+      int most = 0;
+      for (std::size_t k = 0; k < 3; ++k) {  // colour channels; the sky's alpha is 255 in both
+        const int d = std::abs(int{pa[p + k]} - int{pb[p + k]});
+        most = std::max(most, d), sum += d;
       }
+      largest = std::max(largest, most), over += most > 2;
+    }
+    const double pixels = static_cast<double>(pa.size() / static_cast<std::size_t>(ca));
+    std::printf("%-28s largest %3d levels, mean %.3f, %.3f %% of the pixels more than 2 apart\n", file.c_str(), largest,
+                sum / (3 * pixels), 100.0 * static_cast<double>(over) / pixels);
+  }
   return 0;
 }
 
