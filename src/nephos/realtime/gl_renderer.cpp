@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "nephos/core/error.hpp"
+#include "nephos/realtime/gl_program.hpp"
 #include "nephos/realtime/sprite_textures.hpp"
 
 namespace nephos::realtime {
@@ -218,21 +219,6 @@ void main() {
 #endif
 }
 )";
-
-GLuint compile(GLenum type, const std::string& src) {
-  const GLuint s = glCreateShader(type);
-  const char* p = src.c_str();
-  glShaderSource(s, 1, &p, nullptr);
-  glCompileShader(s);
-  GLint ok = 0;
-  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[2048];
-    glGetShaderInfoLog(s, sizeof log, nullptr, log);
-    throw IoError(std::string("shader compilation failed: ") + log);
-  }
-  return s;
-}
 
 // A sprite's identity across frames: its cloud (id, relocations) and its index in the cloud.
 struct SpriteKey {
@@ -473,13 +459,7 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
                               "precision highp float;\nprecision highp sampler2DArray;\n#define TRIM_LAYERS " +
                               std::to_string(texture_layer_count) + "\n";
   auto link = [&](Impl::Program& p, const std::string& defines) {
-    p.id = glCreateProgram();
-    glAttachShader(p.id, compile(GL_VERTEX_SHADER, version + defines + vertex_body));
-    glAttachShader(p.id, compile(GL_FRAGMENT_SHADER, version + defines + fragment_body));
-    glLinkProgram(p.id);
-    GLint ok = 0;
-    glGetProgramiv(p.id, GL_LINK_STATUS, &ok);
-    if (!ok) throw IoError("OpenGL ES: shader program does not link");
+    p.id = link_program(version + defines + vertex_body, version + defines + fragment_body);
     p.u_view_proj = glGetUniformLocation(p.id, "view_proj");
     p.u_right = glGetUniformLocation(p.id, "cam_right");
     p.u_up = glGetUniformLocation(p.id, "cam_up");

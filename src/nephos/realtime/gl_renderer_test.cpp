@@ -7,6 +7,7 @@
 #include <string>
 
 #include "nephos/core/error.hpp"
+#include "nephos/realtime/gl_program.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace nephos::realtime {
@@ -54,6 +55,44 @@ TEST(SpriteRendererGl, NamesItsContext) {
   SpriteRenderer es(16, 16, 1, GlApi::gles30);
   EXPECT_FALSE(es.gl_renderer().empty());
   EXPECT_NE(es.gl_version().find("OpenGL ES 3."), std::string::npos) << es.gl_version();
+}
+
+TEST(GlProgram, ReportsWhichShaderFailedWithTheCompilersLog) {
+  // A shader that does not compile is an IoError naming the shader and carrying the
+  // compiler's log (here: the undeclared identifier); a valid pair links to a program.
+  SpriteRenderer context(16, 16, 1);
+  context.make_current();
+  const std::string vertex = "#version 300 es\nvoid main() { gl_Position = vec4(0.0); }\n";
+  const std::string fragment =
+      "#version 300 es\nprecision highp float;\nout vec4 frag;\nvoid main() { frag = vec4(1.0); }\n";
+  EXPECT_NE(link_program(vertex, fragment), 0u);
+  const std::string broken =
+      "#version 300 es\nprecision highp float;\nout vec4 frag;\nvoid main() { frag = not_declared; }\n";
+  try {
+    link_program(vertex, broken);
+    ADD_FAILURE() << "a fragment shader using an undeclared name compiled";
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("fragment shader compilation failed"), std::string::npos) << what;
+    EXPECT_NE(what.find("not_declared"), std::string::npos) << what;
+  }
+  try {
+    link_program(broken, fragment);  // the same error in the vertex shader
+    ADD_FAILURE() << "a vertex shader using an undeclared name compiled";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex shader compilation failed"), std::string::npos) << e.what();
+  }
+  // Both compile, but the fragment shader reads an input the vertex shader does not write: a
+  // link error in GLSL ES 3.00, reported with the linker's log.
+  const std::string unmatched =
+      "#version 300 es\nprecision highp float;\nin vec2 uv;\nout vec4 frag;\nvoid main() { frag = vec4(uv, 0.0, 1.0); "
+      "}\n";
+  try {
+    link_program(vertex, unmatched);
+    ADD_FAILURE() << "a fragment input without a vertex output linked";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("does not link"), std::string::npos) << e.what();
+  }
 }
 
 TEST(SpriteRendererGl, HeadlessRenderersTakeTurnsInOneThread) {
