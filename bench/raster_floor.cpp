@@ -135,7 +135,7 @@ int main(int argc, char** argv) try {
               context.gl_version().c_str(), context.gl_renderer().c_str());
   std::printf("%-44s %9s %9s %9s\n", "case", "mean ms", "min ms", "ns/px");
   for (const Case& c : cases) {
-    if (c.shader) program(c.shader, c.perspective);
+    const GLuint p = c.shader ? program(c.shader, c.perspective) : 0;
     if (c.blend)
       glEnable(GL_BLEND);
     else
@@ -152,6 +152,7 @@ int main(int argc, char** argv) try {
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (r >= 0) sum += ms, best = std::min(best, ms);
     }
+    if (p) glDeleteProgram(p);
     const double mean = sum / reps;
     std::printf("%-44s %9.3f %9.3f %9.2f\n", c.name, mean, best, 1e6 * mean / (width * height));
   }
