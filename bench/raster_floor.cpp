@@ -13,7 +13,6 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <exception>
 #include <string>
 #include <vector>
@@ -89,8 +88,10 @@ struct Case {
 }  // namespace
 
 int main(int argc, char** argv) try {
-  const int reps = argc > 1 ? std::atoi(argv[1]) : 200;
-  if (reps < 1) throw nephos::ValueError("REPS must be a whole number >= 1", {.key = "REPS"});
+  const std::string arg = argc > 1 ? argv[1] : "200";
+  if (arg.empty() || arg.size() > 6 || arg.find_first_not_of("0123456789") != std::string::npos || std::stoi(arg) < 1)
+    throw nephos::ValueError("expected a whole number of frames from 1 to 999999, got '" + arg + "'", {.key = "REPS"});
+  const int reps = std::stoi(arg);
   // The sprite renderer's headless context (EGL, surfaceless), drawn into a framebuffer of our own.
   nephos::realtime::SpriteRenderer context(width, height, 1);
   context.make_current();

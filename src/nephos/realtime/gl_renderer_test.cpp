@@ -85,8 +85,8 @@ TEST(GlProgram, ReportsWhichShaderFailedWithTheCompilersLog) {
   // Both compile, but the fragment shader reads an input the vertex shader does not write: a
   // link error in GLSL ES 3.00, reported with the linker's log.
   const std::string unmatched =
-      "#version 300 es\nprecision highp float;\nin vec2 uv;\nout vec4 frag;\nvoid main() { frag = vec4(uv, 0.0, 1.0); "
-      "}\n";
+      "#version 300 es\nprecision highp float;\nin vec2 uv;\nout vec4 frag;\n"
+      "void main() { frag = vec4(uv, 0.0, 1.0); }\n";
   try {
     link_program(vertex, unmatched);
     ADD_FAILURE() << "a fragment input without a vertex output linked";
@@ -293,10 +293,10 @@ TEST(SpriteRendererGl, FormingCloudsGoIntoTheRingDissipatingOnesStaySprites) {
 }
 
 TEST(SpriteRendererGl, CrossfadeDrawsTheSpritesNotHeldByBothSets) {
-  // After the camera moves past the 15 % threshold, the new set is rendered over the next frames
-  // while the old one alone stands for its sprites; then the two crossfade
-  // and a sprite is drawn as a sprite unless both sets hold it. Counted from the geometry of the
-  // two ring centres with the per-sprite rule.
+  // After the camera moves past the 15 % threshold, the new set is rendered over the next
+  // frames while the old one alone stands for its sprites; then the two crossfade and a sprite
+  // is drawn as a sprite unless both sets hold it. Counted from the geometry of the two ring
+  // centres with the per-sprite rule.
   const glm::dvec3 eye0{0, 0, 2400}, eye1{1300, 0, 2400};  // 1300 m > 15 % of 8 km
   const CloudField field(recipe_from_code(parse_weather_code("d400")), 9, eye0);
   const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
