@@ -244,7 +244,9 @@ class Render(unittest.TestCase):
         # Six of the nine bands at once: a radiance for each, a brightness temperature for the
         # thermal ones only, a preview each. By day the 3.9 um band adds reflected sunlight to a
         # cloud's emission, so sunlit clouds are warmer there than at 11.2 um (the daytime
-        # BT(3.9) - BT(11) > 0 of water clouds that fog and low-cloud products use).
+        # BT(3.9) - BT(11) > 0 of water clouds that fog and low-cloud products use). Fault
+        # caught: no solar term at 3.9 um (the difference is then below 0). One-sided: the
+        # seed's slab overestimates it (+54 K, docs/render.md), which this does not bound.
         import netCDF4
         import numpy as np
         bands = ["blue", "swir16", "swir22", "mwir", "lwir11", "lwir12"]

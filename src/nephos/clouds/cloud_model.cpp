@@ -183,9 +183,16 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
       f[static_cast<std::size_t>(s)] = sum;
     }
     std::sort(f.begin(), f.end());
-    const double q05 = f[n / 20], q95 = f[n - n / 20];
-    mask_weight_ = std::max(1e-6, (q95 - q05) / 0.9);
-    bias_ = p_.threshold - q95 - 0.05 * mask_weight_;
+    // phi(m) = threshold - Q_F(1 - m) at 1024 intervals of m, Q_F the sample quantile (linear
+    // between order statistics), so that CF > threshold where F > Q_F(1 - m): a fraction m.
+    bias_ = 0;
+    mask_terms_.resize(mask_term_intervals + 1);
+    for (int k = 0; k <= mask_term_intervals; ++k) {
+      const double at = (1.0 - static_cast<double>(k) / mask_term_intervals) * (n - 1);
+      const auto i = std::min(static_cast<std::size_t>(at), static_cast<std::size_t>(n - 2));
+      const double q = f[i] + (at - static_cast<double>(i)) * (f[i + 1] - f[i]);
+      mask_terms_[static_cast<std::size_t>(k)] = p_.threshold - q;
+    }
   }
 }
 
@@ -385,7 +392,7 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
         const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
         const double table = bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]);
         const double bar = !AnyOff || (xb >= 0 && xb <= bt_last - 1) ? table : barrier(alt);
-        const double base = bias_ + mask_weight_ * mask - bar;
+        const double base = bias_ + mask_term(mask) - bar;
         if (mask < p_.min_mask) {
           out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
         } else if (base + fractal_max_ < thr) {
@@ -542,7 +549,7 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
       const std::size_t o = k * chunk;
       maps_[0].upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);
       for (std::size_t a = 0; a < m; ++a) {
-        smooth[o + a] = mask_weight_ * mask_->sample(earth::Vec3{ux[o + a], uy[o + a], uz[o + a]});
+        smooth[o + a] = mask_term(mask_->sample(earth::Vec3{ux[o + a], uy[o + a], uz[o + a]}));
       }
     }
     for (std::size_t a = 0; a < m; ++a) {

@@ -10,10 +10,11 @@
 // of the type. Cloud is where CF > threshold. The seed's single altitude length scale is split
 // into a bottom and a top one (equal by default) so cumulus can have flat bases.
 //
-// Calibration (default on): b and w are derived from the fractal statistics so that a mask
-// value m gives close to a fraction m of cloudy sky: the level set crosses the 5 % and 95 %
-// quantiles of the fractal sum at m = 0.05 and 0.95. This keeps the masks' meaning (cloud
-// fraction, validated against GFS) whatever the fractal weights.
+// Calibration (default on): the mask term b + w mask becomes phi(mask) = threshold -
+// Q_F(1 - mask), Q_F the quantile function of the fractal sum F = sum_i m_i FF_i, so that a
+// mask value m gives a fraction m of cloudy sky (away from the altitude barriers). This keeps
+// the masks' meaning, a cloud fraction, whatever the fractal weights.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -111,8 +112,6 @@ class CloudShell {
   double radius_bottom_m() const { return r_bottom_; }
   double radius_top_m() const { return r_top_; }
   double threshold() const { return p_.threshold; }
-  double bias() const { return bias_; }
-  double mask_weight() const { return mask_weight_; }
 
   /// CF at Earth-fixed position p [m], exact.
   double value(const earth::Vec3& p) const { return evaluate(p, false); }
@@ -173,6 +172,16 @@ class CloudShell {
   void evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const;
   void build_skip_map();
   double barrier(double alt) const;
+  /// The mask's term of CF: w m, or with calibration phi(m) (linear between 1025 nodes).
+  double mask_term(double m) const {
+    if (mask_terms_.empty()) return mask_weight_ * m;
+    const double x = std::clamp(m, 0.0, 1.0) * mask_term_intervals;
+    const int i = std::min(static_cast<int>(x), mask_term_intervals - 1);
+    const auto iu = static_cast<std::size_t>(i);
+    return mask_terms_[iu] + (x - i) * (mask_terms_[iu + 1] - mask_terms_[iu]);
+  }
+  static constexpr int mask_term_intervals = 1024;
+  std::vector<double> mask_terms_;  ///< phi at m = k / 1024 (calibrated), else empty
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms
   std::array<int, 3> order_{0, 2, 1};                      ///< evaluation order of the fractal terms

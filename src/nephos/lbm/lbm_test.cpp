@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
+#include <complex>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -17,7 +19,6 @@
 #include "nephos/core/parallel.hpp"
 #include "nephos/core/test_support.hpp"
 #include "nephos/lbm/bgk.hpp"
-#include "nephos/lbm/thermal.hpp"
 #include "nephos/lbm/water_model.hpp"
 
 namespace nephos::lbm {
@@ -108,7 +109,7 @@ TEST(Bgk, PoiseuilleChannel) {
     num += (u - exact) * (u - exact);
     den += exact * exact;
   }
-  EXPECT_LT(std::sqrt(num / den), 0.05);
+  std::printf("[ measured ] Poiseuille L2 error %.2e\n", std::sqrt(num / den));
   EXPECT_LT(std::sqrt(num / den), 0.01) << "expected second-order accuracy";
 }
 
@@ -135,6 +136,8 @@ TEST(WaterModel, EachComponentsMassConserved) {
   w.initialise(make_silos(g, w.params(), 4), 4);
   const double m1 = w.total(0), m2 = w.total(1);
   for (int t = 0; t < 100; ++t) w.step();
+  std::printf("[ measured ] relative drift over 100 steps: vapour %.1e, temperature %.1e\n", w.total(0) / m1 - 1,
+              w.total(1) / m2 - 1);
   EXPECT_NEAR(w.total(0) / m1, 1.0, 1e-6);
   EXPECT_NEAR(w.total(1) / m2, 1.0, 1e-6);
   std::string what;
@@ -206,40 +209,228 @@ TEST_P(WaterModelStorage, StableDeterministicAndResumable) {
   EXPECT_NEAR(t[g.index(3, 3, g.nz - 1)], 0.495, 1e-6);
 }
 
-// Variance of the vapour density after `steps` from a uniform state with small noise.
-double vapour_variance_ratio(double rho1, int steps) {
-  WaterModelParams p;
-  p.periodic_z = true;
-  p.g12 = 0;  // isolate the vapour's own equation of state (eq. 29)
-  p.buoyancy = 0;
-  WaterModel w({24, 24, 24}, p);
-  w.initialise_uniform(rho1, 0.5, 1e-3, 3);
-  auto variance = [&] {
-    const auto v = w.vapour();
-    double m = 0, s = 0;
-    for (float x : v) m += x;
-    m /= static_cast<double>(v.size());
-    for (float x : v) s += (x - m) * (x - m);
-    return s / static_cast<double>(v.size());
-  };
-  const double v0 = variance();
-  for (int t = 0; t < steps; ++t) w.step();
-  return variance() / v0;
+TEST(WaterModel, CollisionMomentsOfLinearFields) {
+  // One step from rest equilibrium with vapour and temperature linear in x and y. Streaming a
+  // rest equilibrium of a linear field leaves each cell's density and gives it the momentum
+  // j = -c_s^2 grad(rho) and the second moment rho c_s^2 I exactly (the weights' odd moments
+  // vanish; c_s^2 = (1 - d)/2, eq. 19). The isotropic stencil is exact on linear fields and
+  // accurate to ~1e-8 on Psi_1 here (|grad rho|^3 times its third derivative). So after the
+  // collision, with eqs. (9), (10), (25) and (31) written out:
+  //   sum f = rho,  sum f c = j (1 - 1/xi) + rho v / xi,
+  //   sum f c c = (1 - 1/xi) rho c_s^2 I + (rho c_s^2 I + rho v v) / xi,  v = u' + xi F / rho.
+  // Faults caught: any gradient weight off (the diagonal one 5 % too large scales every
+  // gradient by 1.033), a wrong force, common velocity, shift or equilibrium coefficient.
+  // Tolerance 2e-7 on values of 1e-3 to 0.4: FP32 populations round to ~3e-9 each and the
+  // forces come from differences of FP32 Psi over two cells (relative ~3e-5 of ~2e-3).
+  for (const bool periodic_z : {false, true}) {  // the fused wavefront step and the two-sweep one
+    WaterModelParams p;
+    p.periodic_z = periodic_z;
+    const Grid3 g{16, 16, 8};
+    const double b1[2] = {0.004, 0.0025}, b2[2] = {0.0012, -0.0018};  // gradients [per cell]
+    auto rho1 = [&](int x, int y) { return 0.7 + b1[0] * (x - 8) + b1[1] * (y - 8); };
+    auto rho2 = [&](int x, int y) { return 0.5 + b2[0] * (x - 8) + b2[1] * (y - 8); };
+    std::vector<float> v(g.cells()), t(g.cells());
+    for (int z = 0; z < g.nz; ++z)
+      for (int y = 0; y < g.ny; ++y)
+        for (int x = 0; x < g.nx; ++x)
+          v[g.index(x, y, z)] = static_cast<float>(rho1(x, y)), t[g.index(x, y, z)] = static_cast<float>(rho2(x, y));
+    WaterModel w(g, p);
+    w.initialise_fields(v, t);
+    w.step();
+    const double cs2 = (1 - p.rest_fraction) / 2, xi[2] = {p.xi_vapour, p.xi_temperature};
+    double worst = 0;
+    // Away from the periodic wrap of the linear fields (x, y = 0 | 15) and from the walls.
+    for (int z = 1; z < g.nz - 1; ++z)
+      for (int y = 2; y < g.ny - 2; ++y)
+        for (int x = 2; x < g.nx - 2; ++x) {
+          // The fields as float, as the model holds them.
+          const double r[2] = {static_cast<float>(rho1(x, y)), static_cast<float>(rho2(x, y))};
+          const double grad[2][3] = {{b1[0], b1[1], 0}, {b2[0], b2[1], 0}};
+          const double psi = p.rho10 * (1 - std::exp(-r[0] / p.rho10)), dpsi = std::exp(-r[0] / p.rho10);
+          const double g11 = -(1 - p.rest_fraction) / p.rho10 * (1 + p.rho20 - r[1]);
+          double force[2][3], j[2][3], u[3];
+          for (int a = 0; a < 3; ++a) {
+            force[0][a] = -psi * (2 * g11 * dpsi * grad[0][a] + p.g12 * grad[1][a]);
+            force[1][a] = -r[1] * (p.g12 * dpsi * grad[0][a] + p.g22 * grad[1][a]);
+            for (int c = 0; c < 2; ++c) j[c][a] = -cs2 * grad[c][a];
+            u[a] = (j[0][a] / xi[0] + j[1][a] / xi[1]) / (r[0] / xi[0] + r[1] / xi[1]);
+          }
+          force[0][2] += r[0] * p.buoyancy * (r[1] - p.buoyancy_reference);
+          for (int c = 0; c < 2; ++c) {
+            const auto m = w.moments(c, x, y, z);
+            double vel[3];
+            for (int a = 0; a < 3; ++a) vel[a] = u[a] + xi[c] * force[c][a] / r[c];
+            worst = std::max(worst, std::abs(m.density - r[c]));
+            for (int a = 0; a < 3; ++a) {
+              const double expected = j[c][a] * (1 - 1 / xi[c]) + r[c] * vel[a] / xi[c];
+              worst = std::max(worst, std::abs(m.momentum[static_cast<std::size_t>(a)] - expected));
+            }
+            const int ab[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+            for (int k = 0; k < 6; ++k) {
+              const int a = ab[k][0], b = ab[k][1];
+              const double expected = (a == b ? r[c] * cs2 : 0.0) + r[c] * vel[a] * vel[b] / xi[c];
+              worst = std::max(worst, std::abs(m.second[static_cast<std::size_t>(k)] - expected));
+            }
+          }
+        }
+    std::printf("%s: largest moment error %.2e\n", periodic_z ? "two-sweep step" : "fused step", worst);
+    EXPECT_LT(worst, 2e-7) << (periodic_z ? "two-sweep step" : "fused step");
+  }
 }
 
-TEST(WaterModel, PhaseTransitionWindowOfEquation30) {
-  // With G11 from eq. (31), dp/drho_1 < 0 (spinodal: small perturbations grow) for rho_1 between
-  // the bounds of eq. (30): at rho_2 = 0.5, rho10 = 1, d = 0.1,
-  // -ln((1 +- sqrt(1 - 1/1.005)) / 2) = 0.625 .. 0.766. Noise at the window's centre must grow
-  // by orders of magnitude; far outside it must decay. (The lattice widens the window: measured
-  // growth between about 0.36 and 0.97, see docs/lbm.md; so "far outside" is 0.3 and 1.1.)
-  const double disc = std::sqrt(1.0 - 1.0 / (1.0 + 0.505 - 0.5));
-  const double lo = -std::log((1 + disc) / 2), hi = -std::log((1 - disc) / 2);
-  EXPECT_NEAR(lo, 0.625, 1e-3);  // eq. (30), evaluated independently of the solver
-  EXPECT_NEAR(hi, 0.766, 1e-3);
-  EXPECT_GT(vapour_variance_ratio(0.5 * (lo + hi), 300), 100.0);
-  EXPECT_LT(vapour_variance_ratio(0.3, 300), 1.0);
-  EXPECT_LT(vapour_variance_ratio(1.1, 300), 1.0);
+namespace {
+// The long-wave interdiffusion coefficient of the water model's two components, derived in
+// docs/lbm.md ("The lattice's own unstable window") from the kinetic step at first order in
+// the gradients: with G12 = G22 = 0, no buoyancy, c_s^2 = (1 - d)/2 and p1'(rho_1) = c_s^2 +
+// 2 G11 Psi_1 Psi_1',
+//   D = c_s^2 (p1' (rho_2 xi_1 + rho_1 (xi_2 - 1/2)) - rho_2 c_s^2 / 2) / (rho_2 c_s^2 + rho_1 p1'),
+// so that a long vapour wave at constant pressure grows as exp(-D k^2 t).
+double vapour_pressure_slope(const WaterModelParams& p, double rho1, double rho2) {
+  const double g11 = -(1 - p.rest_fraction) / p.rho10 * (1 + p.rho20 - rho2);
+  const double e = std::exp(-rho1 / p.rho10);
+  return (1 - p.rest_fraction) / 2 + 2 * g11 * p.rho10 * (1 - e) * e;
+}
+double interdiffusion(const WaterModelParams& p, double rho1, double rho2) {
+  const double cs2 = (1 - p.rest_fraction) / 2, dp1 = vapour_pressure_slope(p, rho1, rho2);
+  return cs2 * (dp1 * (rho2 * p.xi_vapour + rho1 * (p.xi_temperature - 0.5)) - 0.5 * rho2 * cs2) /
+         (rho2 * cs2 + rho1 * dp1);
+}
+
+// The growth rate [per step] of a vapour wave of n cells along x about rho1, with the
+// temperature wave that keeps the pressure uniform, measured on the solver: the least-squares
+// slope of ln |amplitude| over the last two thirds of `steps`.
+double wave_growth_rate(const WaterModelParams& p, double rho1, double rho2, int n, int steps) {
+  const Grid3 g{n, 4, 4};
+  const double cs2 = (1 - p.rest_fraction) / 2, k = 2 * M_PI / n, eps = 2e-3;
+  const double dp1 = vapour_pressure_slope(p, rho1, rho2);
+  std::vector<float> v(g.cells()), t(g.cells());
+  for (int z = 0; z < g.nz; ++z)
+    for (int y = 0; y < g.ny; ++y)
+      for (int x = 0; x < g.nx; ++x) {
+        v[g.index(x, y, z)] = static_cast<float>(rho1 + eps * std::cos(k * x));
+        t[g.index(x, y, z)] = static_cast<float>(rho2 - eps * dp1 / cs2 * std::cos(k * x));
+      }
+  WaterModel w(g, p);
+  w.initialise_fields(v, t);
+  auto log_amplitude = [&] {
+    const auto f = w.vapour();
+    double a = 0;
+    for (std::size_t i = 0; i < f.size(); ++i)
+      a += (f[i] - rho1) * std::cos(k * static_cast<double>(i % static_cast<std::size_t>(n)));
+    return std::log(std::abs(2 * a / static_cast<double>(f.size())));
+  };
+  double st = 0, sa = 0, stt = 0, sta = 0, count = 0;
+  for (int s = 1; s <= steps; ++s) {
+    w.step();
+    if (3 * s < steps) continue;
+    const double a = log_amplitude();
+    st += s, sa += a, stt += double(s) * s, sta += s * a, ++count;
+  }
+  return (count * sta - st * sa) / (count * stt - st * st);
+}
+// The same wave and measurement on the water model's equations linearised about the uniform
+// state (docs/lbm.md, "The lattice's own unstable window"): the complex amplitudes of the 2 x 19
+// post-collision populations of the Fourier mode k along x, streamed (f_i times e^{-i k c_ix})
+// and collided with the linearised eqs. (9), (10), (25) and (31) (G12 = G22 = 0, no buoyancy):
+// drho_c = sum_i f_c,i, j_c = sum_i f_c,i c_i, F_1 = -2 G11 Psi_1 Psi_1' (i K) drho_1 with the
+// gradient stencil's symbol K = sum_i (w_i / c_s^2) c_ix sin(k c_ix) (weights 1/18, 1/36,
+// Qian et al. 1992), f_eq = w_i drho + rho k1_i c_i.v (the seed's equilibrium, first order).
+double linear_growth_rate(const WaterModelParams& p, double rho1, double rho2, int n, int steps) {
+  using C = std::complex<double>;
+  const double k = 2 * M_PI / n, d = p.rest_fraction, cs2 = (1 - d) / 2;
+  const double dp1 = vapour_pressure_slope(p, rho1, rho2);
+  const double rho[2] = {rho1, rho2}, xi[2] = {p.xi_vapour, p.xi_temperature};
+  const double g11 = -(1 - d) / p.rho10 * (1 + p.rho20 - rho2);
+  const double psi = p.rho10 * (1 - std::exp(-rho1 / p.rho10)), dpsi = std::exp(-rho1 / p.rho10);
+  double symbol = 0;  // K
+  std::array<double, d3q19::q> w{}, k1{};
+  for (int i = 0; i < d3q19::q; ++i) {
+    const auto iu = static_cast<std::size_t>(i);
+    const bool axis = i >= 1 && i <= 6;
+    w[iu] = i == 0 ? d : axis ? (1 - d) / 12 : (1 - d) / 24;
+    k1[iu] = i == 0 ? 0 : axis ? 1.0 / 6 : 1.0 / 12;
+    symbol += (i == 0 ? 0.0 : axis ? 1.0 / 6 : 1.0 / 12) * d3q19::cx[iu] * std::sin(k * d3q19::cx[iu]);
+  }
+  std::array<std::array<C, d3q19::q>, 2> f;
+  for (int i = 0; i < d3q19::q; ++i) f[0][static_cast<std::size_t>(i)] = w[static_cast<std::size_t>(i)] * 1.0;
+  for (int i = 0; i < d3q19::q; ++i) f[1][static_cast<std::size_t>(i)] = w[static_cast<std::size_t>(i)] * (-dp1 / cs2);
+  double st = 0, sa = 0, stt = 0, sta = 0, count = 0;
+  for (int s = 1; s <= steps; ++s) {
+    std::array<C, 3> j[2];
+    C drho[2];
+    for (int c = 0; c < 2; ++c) {
+      drho[c] = 0, j[c] = {0, 0, 0};
+      for (int i = 0; i < d3q19::q; ++i) {
+        const auto iu = static_cast<std::size_t>(i);
+        f[c][iu] *= std::exp(C(0, -k * d3q19::cx[iu]));  // pull streaming
+        drho[c] += f[c][iu];
+        j[c][0] += f[c][iu] * double(d3q19::cx[iu]), j[c][1] += f[c][iu] * double(d3q19::cy[iu]);
+        j[c][2] += f[c][iu] * double(d3q19::cz[iu]);
+      }
+    }
+    const C force_x = -psi * 2 * g11 * C(0, symbol) * dpsi * drho[0];
+    for (int c = 0; c < 2; ++c) {
+      std::array<C, 3> v;
+      for (std::size_t a = 0; a < 3; ++a)
+        v[a] = (j[0][a] / xi[0] + j[1][a] / xi[1]) / (rho[0] / xi[0] + rho[1] / xi[1]);
+      if (c == 0) v[0] += xi[0] * force_x / rho[0];
+      for (int i = 0; i < d3q19::q; ++i) {
+        const auto iu = static_cast<std::size_t>(i);
+        const C cu = double(d3q19::cx[iu]) * v[0] + double(d3q19::cy[iu]) * v[1] + double(d3q19::cz[iu]) * v[2];
+        const C feq = w[iu] * drho[c] + rho[c] * k1[iu] * cu;
+        f[c][iu] -= (f[c][iu] - feq) / xi[c];
+      }
+    }
+    if (3 * s < steps) continue;
+    C amplitude = 0;
+    for (const C& x : f[0]) amplitude += x;
+    const double a = std::log(std::abs(amplitude.real()));
+    st += s, sa += a, stt += double(s) * s, sta += s * a, ++count;
+  }
+  return (count * sta - st * sa) / (count * stt - st * st);
+}
+}  // namespace
+
+TEST(WaterModel, UnstableWindowIsTheLatticesOwn) {
+  // Eq. (30) puts the spinodal, dp/drho_1 < 0, at 0.625 < rho_1 < 0.766 (rho_2 = 0.5). The
+  // lattice's window is wider: the interdiffusion of the two components turns negative first,
+  // at 0.269 < rho_1 < 1.116 (docs/lbm.md derives it from eq. (26): the force enters with xi,
+  // the pressure with xi - 1/2). Checked three ways:
+  // (a) The solver's growth rate of a vapour wave (48 and 64 cells) against the linearised
+  //     equations run through the same 300 steps and fit: agreement within 2e-3 in s/k^2, the
+  //     effect of FP32 rounding (~1e-8 per step on amplitude changes of >= 1e-6) and of the
+  //     wave's second-order terms (amplitude 2e-3); measured at most 4e-4. A diagonal gradient
+  //     weight 5 % too large moves s/k^2 by ~0.02.
+  // (b) The linearised equations' long-wave limit (a 1024-cell wave, run to its slowest mode)
+  //     against the closed-form -D of interdiffusion(): within 5e-4 (the
+  //     finite k's correction c k^2 with c ~ 0.7 is 3e-5 there; measured at most 1.1e-4).
+  // (c) Signs: waves grow at rho_1 = 0.5 and 1.0, outside eq. (30)'s window, and decay at 0.2
+  //     and 1.3, outside the lattice's.
+  WaterModelParams p;
+  p.periodic_z = true;
+  p.g12 = 0;  // only G11, as eqs. (29)-(30) assume
+  p.buoyancy = 0;
+  double worst = 0;
+  for (double rho1 : {0.2, 0.25, 0.3, 0.5, 0.7, 1.0, 1.1, 1.15, 1.3}) {
+    for (int n : {48, 64}) {
+      const double k2 = std::pow(2 * M_PI / n, 2);
+      const double solver = wave_growth_rate(p, rho1, 0.5, n, 300) / k2;
+      const double linear = linear_growth_rate(p, rho1, 0.5, n, 300) / k2;
+      worst = std::max(worst, std::abs(solver - linear));
+      EXPECT_NEAR(solver, linear, 2e-3) << "rho1 " << rho1 << ", " << n << " cells";
+    }
+    const double k2 = std::pow(2 * M_PI / 1024, 2);
+    const double long_wave = linear_growth_rate(p, rho1, 0.5, 1024, 60000) / k2;
+    std::printf("rho1 %.2f: -D %+.5f, linearised s/k^2 at 1024 cells %+.5f\n", rho1, -interdiffusion(p, rho1, 0.5),
+                long_wave);
+    EXPECT_NEAR(long_wave, -interdiffusion(p, rho1, 0.5), 5e-4) << "rho1 " << rho1;
+  }
+  std::printf("largest |solver - linearised| in s/k^2: %.2e\n", worst);
+  for (double rho1 : {0.5, 1.0}) EXPECT_GT(wave_growth_rate(p, rho1, 0.5, 64, 300), 0) << rho1;
+  for (double rho1 : {0.2, 1.3}) EXPECT_LT(wave_growth_rate(p, rho1, 0.5, 64, 300), 0) << rho1;
+  // The closed form's zeros, the window's edges quoted above and in docs/lbm.md.
+  EXPECT_LT(interdiffusion(p, 0.268, 0.5) * interdiffusion(p, 0.270, 0.5), 0);
+  EXPECT_LT(interdiffusion(p, 1.115, 0.5) * interdiffusion(p, 1.117, 0.5), 0);
 }
 
 TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
@@ -382,32 +573,12 @@ TEST(WaterModel, Fp16StorageHoldsAccuracy) {
   const auto [mean16, cond16] = silo(Storage::fp16);
   std::printf("silo case, 100 steps: mean vapour %.6f / %.6f, condensed fraction %.4f / %.4f (FP32 / FP16)\n", mean32,
               mean16, cond32, cond16);
-  EXPECT_NEAR(mean16, mean32, 1.0);
-  EXPECT_NEAR(cond16, cond32, 1.0);
-}
-
-TEST(ThermalConvection, RayleighBenardOnset) {
-  // Growth rate of the first convective mode (wavelength 2 H, within 1 % of the critical
-  // 2.016 H) between no-slip plates, Pr = 1, at Ra = 1650 and 1800; the rate is linear in Ra
-  // near onset, so its zero is the critical Rayleigh number: 1707.76 for rigid-rigid plates
-  // (Chandrasekhar 1961). Issue: within 5 %. CI uses H = 16 (measured 1720.5, +0.7 %);
-  // NEPHOS_FULL_VALIDATION=1 runs H = 24 (measured 1713.7, +0.35 %).
-  const int h = std::getenv("NEPHOS_FULL_VALIDATION") ? 24 : 16;
-  auto growth = [h](double ra) {
-    RayleighBenard rb(2 * h, 1, h, ra, 0.1, 0.1);
-    rb.initialise(1e-3);
-    const int settle = 3000 * h * h / 256, window = 4000 * h * h / 256;  // in viscous times H^2 / nu
-    for (int t = 0; t < settle; ++t) rb.step();                          // let the faster-decaying modes die out
-    const double a1 = rb.convective_amplitude();
-    for (int t = 0; t < window; ++t) rb.step();
-    return std::log(std::abs(rb.convective_amplitude() / a1)) / window;
-  };
-  const double s1 = growth(1650), s2 = growth(1800);
-  ASSERT_LT(s1, 0);  // decays below onset
-  ASSERT_GT(s2, 0);  // grows above it
-  const double ra_c = 1650 + (1800 - 1650) * (-s1) / (s2 - s1);
-  EXPECT_NEAR(ra_c / 1707.76, 1.0, 0.05) << "Ra_c = " << ra_c;
-  RecordProperty("critical_rayleigh", std::to_string(ra_c));
+  // Measured differences 5e-5 (mean) and 1e-4 (condensed fraction, 3 of 24 576 cells). Bounds
+  // 5e-4 and 0.005 (123 cells): ten and fifty times that, and far below what a fault in the FP16
+  // paths that only this case runs (the wall layers and silo initialisation, written through
+  // Populations::write/set) gives: halves scaled by 2 there blow the run up to NaN.
+  EXPECT_NEAR(mean16, mean32, 5e-4);
+  EXPECT_NEAR(cond16, cond32, 0.005);
 }
 
 TEST(WaterModel, ACheckpointStoresEveryNanAsTheOneQuietNan) {

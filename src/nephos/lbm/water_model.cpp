@@ -87,8 +87,6 @@ WaterModel::WaterModel(Grid3 grid, WaterModelParams params) : g_(grid), global_(
 }
 
 void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) {
-  const std::size_t stride = g_.direction_stride();
-  const float d = static_cast<float>(p_.rest_fraction);
 #pragma omp parallel for schedule(static)
   for (int z = 0; z < g_.nz; ++z)
     for (int y = 0; y < g_.ny; ++y)
@@ -116,29 +114,42 @@ void WaterModel::initialise(const std::vector<Silo>& silos, std::uint64_t seed) 
         }
         const double temp = p_.temperature_bottom + (p_.temperature_top - p_.temperature_bottom) *
                                                         (g_.nz > 1 ? static_cast<double>(z) / (g_.nz - 1) : 0.0);
-        float feq[d3q19::q];
-        d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0,
-                                          0, 0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
-        d3q19::equilibrium_shifted<float>(static_cast<float>(temp - reference(p_, 1)), static_cast<float>(temp), 0, 0,
-                                          0, d, feq);
-        for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
+        set_rest_equilibrium(cell, vapour, temp);
+      }
+  step_ = 0;
+}
+
+void WaterModel::set_rest_equilibrium(std::size_t cell, double vapour, double temperature) {
+  const std::size_t stride = g_.direction_stride();
+  const float d = static_cast<float>(p_.rest_fraction);
+  float feq[d3q19::q];
+  d3q19::equilibrium_shifted<float>(static_cast<float>(vapour - reference(p_, 0)), static_cast<float>(vapour), 0, 0, 0,
+                                    d, feq);
+  for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
+  d3q19::equilibrium_shifted<float>(static_cast<float>(temperature - reference(p_, 1)), static_cast<float>(temperature),
+                                    0, 0, 0, d, feq);
+  for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
+}
+
+void WaterModel::initialise_fields(const std::vector<float>& vapour, const std::vector<float>& temperature) {
+  const std::size_t n = global_.cells();
+  for (const auto& [field, key] : {std::pair{&vapour, "vapour"}, std::pair{&temperature, "temperature"}})
+    if (field->size() != n)
+      throw ValueError(fmt::format("a field of {} cells, expected {} ({})", field->size(), n, global_.describe()),
+                       {.key = key});
+  for (int z = 0; z < g_.nz; ++z)
+    for (int y = 0; y < g_.ny; ++y)
+      for (int x = 0; x < g_.nx; ++x) {
+        const std::size_t from = global_.index(x, global_y(y), z);
+        set_rest_equilibrium(g_.index(x, y, z), vapour[from], temperature[from]);
       }
   step_ = 0;
 }
 
 void WaterModel::initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed) {
-  const std::size_t n = g_.cells(), stride = g_.direction_stride();
-  const float d = static_cast<float>(p_.rest_fraction);
-  for (std::size_t cell = 0; cell < n; ++cell) {
-    const double v = vapour + perturbation * (2 * uniform01(seed, 0x9e7, cell) - 1);
-    float feq[d3q19::q];
-    d3q19::equilibrium_shifted<float>(static_cast<float>(v - reference(p_, 0)), static_cast<float>(v), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[0].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
-    d3q19::equilibrium_shifted<float>(static_cast<float>(temperature - reference(p_, 1)),
-                                      static_cast<float>(temperature), 0, 0, 0, d, feq);
-    for (int i = 0; i < d3q19::q; ++i) f_[1].set(static_cast<std::size_t>(i) * stride + cell, feq[i]);
-  }
+  const std::size_t n = g_.cells();
+  for (std::size_t cell = 0; cell < n; ++cell)
+    set_rest_equilibrium(cell, vapour + perturbation * (2 * uniform01(seed, 0x9e7, cell) - 1), temperature);
   step_ = 0;
 }
 
@@ -647,6 +658,24 @@ std::vector<float> WaterModel::density(int c) const {
         out[(static_cast<std::size_t>(z) * own + static_cast<std::size_t>(y)) * g_.nx + x] = s;
       }
   return out;
+}
+
+WaterModel::Moments WaterModel::moments(int c, int x, int y, int z) const {
+  const std::size_t stride = g_.direction_stride(), cell = g_.index(x, y + owned_begin(), z);
+  Moments m{reference(p_, c), {0, 0, 0}, {0, 0, 0, 0, 0, 0}};
+  for (int i = 0; i < d3q19::q; ++i) {
+    const auto iu = static_cast<std::size_t>(i);
+    const double f = f_[c].get(iu * stride + cell);
+    const double cx = d3q19::cx[iu], cy = d3q19::cy[iu], cz = d3q19::cz[iu];
+    m.density += f;
+    m.momentum[0] += f * cx, m.momentum[1] += f * cy, m.momentum[2] += f * cz;
+    m.second[0] += f * cx * cx, m.second[1] += f * cy * cy, m.second[2] += f * cz * cz;
+    m.second[3] += f * cx * cy, m.second[4] += f * cx * cz, m.second[5] += f * cy * cz;
+  }
+  // The stored populations are shifted by the rest state w_i rho_ref, whose second moment is
+  // rho_ref (1 - d) / 2 per axis (eq. 19).
+  for (int a = 0; a < 3; ++a) m.second[static_cast<std::size_t>(a)] += reference(p_, c) * (1 - p_.rest_fraction) / 2;
+  return m;
 }
 
 double WaterModel::total(int c) const {

@@ -14,6 +14,7 @@
 // Gradients use the isotropic D3Q19 stencil. Boundaries: periodic in x and y; at the bottom
 // and top layers the temperature is held at its initial value and both components are reset
 // to rest equilibrium ("equalising directional densities"), with walls beyond.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -89,6 +90,10 @@ class WaterModel {
   void initialise(const std::vector<Silo>& silos, std::uint64_t seed);
   /// Uniform vapour and temperature at rest, vapour perturbed by +-`perturbation` (hashed).
   void initialise_uniform(double vapour, double temperature, double perturbation, std::uint64_t seed);
+  /// Both components at rest equilibrium with the given densities, each a whole-lattice field
+  /// in the layout of vapour() (x fastest, then y, then z; a slab takes its own and its halo
+  /// rows). ValueError naming `vapour` or `temperature` if a field has the wrong size.
+  void initialise_fields(const std::vector<float>& vapour, const std::vector<float>& temperature);
   void step();
   /// The two halves of step() for drivers that exchange halos themselves: stream (pass 1: the
   /// densities after streaming and Psi_1) then collide (pass 2: streaming, forces, collision,
@@ -105,6 +110,15 @@ class WaterModel {
   std::vector<float> temperature() const { return density(1); }
   /// Sum of a component's populations over the grid (double accumulation).
   double total(int component) const;
+  /// The velocity moments of one cell's stored (post-collision) populations: density
+  /// sum_i f_i, momentum sum_i f_i c_i and the second moment sum_i f_i c_i c_i (xx, yy, zz,
+  /// xy, xz, yz), in double. (x, y, z) as in vapour(): y counts the owned rows.
+  struct Moments {
+    double density;
+    std::array<double, 3> momentum;
+    std::array<double, 6> second;
+  };
+  Moments moments(int component, int x, int y, int z) const;
 
   /// Finds the first NaN or out-of-range density (vapour outside [0, 100 rho10], temperature
   /// outside [0, 10]); returns false and describes it in `what` / `cell`.
@@ -141,6 +155,8 @@ class WaterModel {
 
  private:
   std::vector<float> density(int component) const;
+  /// Both components of a cell at rest equilibrium with these densities.
+  void set_rest_equilibrium(std::size_t cell, double vapour, double temperature);
   struct RowScratch;
   /// Where pass 1 puts the densities and Psi_1 of a row and pass 2 finds them: the lattice-wide
   /// arrays (y wrapped around the lattice), or a block's ring of three planes (y unwrapped,

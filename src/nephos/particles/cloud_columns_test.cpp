@@ -120,8 +120,10 @@ TEST(FromWeatherGrids, RealGfsColumnsAgreeWithGfsCloudCover) {
   const auto& c = pw.frames[0].columns;
   ASSERT_TRUE(w.has_cloud_cover(weather::CloudLayer::total));
   const auto& tcc = w.cloud_cover(weather::CloudLayer::total);
-  // Columns thick enough to see (tau > 5) should be mostly cloudy in GFS's own total cloud
-  // cover (a diagnostic computed by GFS independently of our eq. 2).
+  // A consistency check with GFS, not a validation of realism: columns thick enough to see
+  // (tau > 5) should be mostly cloudy in GFS's own total cloud cover. Both come from GFS's
+  // condensate (tcc from its cloud scheme, tau from clwmr by our eq. 2), so this catches
+  // columns that do not follow GFS's clouds (a wrong level order, unit or grid row).
   std::size_t thick = 0, thick_and_cloudy = 0;
   for (int r = 0; r < pw.grid.rows; ++r)
     for (int i = 0; i < pw.grid.cols; ++i) {

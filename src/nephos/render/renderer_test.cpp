@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -30,7 +31,8 @@ std::shared_ptr<const clouds::FractalTextures> tiny_textures() {
 // A shell whose cloud function depends on altitude only: no fractals, a uniform mask (1 unless
 // given) m, bias b:
 //   CF = b + m - A exp(-(alt - bottom)/Lb) - A exp((alt - top)/Lt).
-CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f, double asymmetry = 0) {
+CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f, double asymmetry = 0,
+                         double water_content_g_m3 = 0.01) {
   CloudTypeParams p;
   p.asymmetry = asymmetry;
   p.shell_bottom_m = 1000;
@@ -44,7 +46,7 @@ CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f, d
   p.altitude_length_top_m = 400;
   p.threshold = 0.5;
   p.phase = optics::Phase::water;
-  p.water_content_g_m3 = 0.01;
+  p.water_content_g_m3 = water_content_g_m3;
   p.effective_radius_um = 10;
   auto cube = std::make_shared<clouds::CubeMap<float>>(4);
   for (auto& v : cube->data()) v = mask;
@@ -149,6 +151,48 @@ TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
                 1e-4);
   }
   EXPECT_GT(emissivity[1], emissivity[0]);
+}
+
+TEST(Renderer, BeerLambertAlongASlantPathThroughALayer) {
+  // What lies behind a cloud reaches the sensor through exp(-tau') of the cloud along the
+  // ray (Beer-Lambert, eq. 5), tau' the similarity-scaled optical depth of the chord through
+  // the layer. Two renders of a homogeneous layer at night differing only in the surface
+  // temperature: the difference of their radiances is that exp(-tau') times the difference of
+  // the surface's Planck radiances, whatever the cloud emits. A slant ray, about 60 deg from
+  // the vertical, so the chord (from the two spheres, as in the marcher test) is about twice
+  // the layer; 0.002 g/m^3 of water, so tau' is 0.2-1.2. Tolerance 1e-3 relative: the
+  // renderer's 0.01 K Planck tables (1e-5 relative on each radiance) on a difference of a
+  // tenth of each at worst. Fault caught: the unscaled optical depth in the transmittance
+  // (0.29 against 0.61 at g = 0.85), or a depth not along the ray.
+  for (double g : {0.0, 0.85}) {
+    clouds::CloudScene scene;
+    scene.shells.push_back(layered_shell(1.0, 0.0, 1.0f, g, 0.002));
+    const earth::Geodetic from{0, 0, 5000}, to{0, 0.08, 0};  // 8.9 km east of the point below
+    const Sensor sensor = Sensor::look_at(from, to, 0.01, 1, 1);
+    earth::SunPosition sun{};
+    sun.direction_ecef = -earth::unit_from_latlon(0, 0);  // midnight
+    sun.distance_au = 1;
+    RenderParams params;
+    params.bands = {"lwir"};
+    double radiance[2];
+    for (int i = 0; i < 2; ++i) {
+      params.surface_temperature_k = i == 0 ? 250 : 320;
+      radiance[i] = render(scene, sensor, sun, params).radiance[0][0];
+    }
+    const earth::Vec3 d = sensor.ray(0.5, 0.5);
+    const auto outer = earth::ray_sphere(sensor.position, d, earth::radius_m + 3000);
+    const auto inner = earth::ray_sphere(sensor.position, d, earth::radius_m + 1000);
+    ASSERT_TRUE(outer && inner);
+    const double chord = inner->t0 - outer->t0;
+    ASSERT_GT(chord, 3500);  // slant: well beyond the 2000 m layer
+    const optics::Band& b = optics::band("lwir");
+    const auto props = optics::cloud_optics(optics::Phase::water, 0.002, 10, b);
+    const double tau = (1 - props.single_scattering_albedo * g) * props.extinction_per_m * chord;
+    const double transmitted =
+        (radiance[1] - radiance[0]) / (optics::band_planck(b, 320) - optics::band_planck(b, 250));
+    std::printf("[ measured ] g %.2f: transmitted %.6f, exp(-tau') %.6f\n", g, transmitted, std::exp(-tau));
+    EXPECT_NEAR(transmitted / std::exp(-tau), 1.0, 1e-3) << "g = " << g;
+  }
 }
 
 // ---- On the real GFS sample -------------------------------------------------------------
