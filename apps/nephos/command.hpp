@@ -6,21 +6,27 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <functional>
+#include <map>
+#include <string>
 #include <vector>
 
 namespace nephos::app {
 
-/// Options before the subcommand; filled in by parsing, read when a command runs.
+/// The program's own options (before or after the subcommand); filled in by parsing, read when
+/// a command runs.
 struct GlobalOptions {
   bool verbose = false, quiet = false;
   int threads = 0;
   std::uint64_t seed = 1;
 };
 
-/// A registered subcommand: chosen when `*app` is true after parsing; `run` returns the exit code.
+/// A registered subcommand: chosen when `*app` is true after parsing; `run` returns the exit
+/// code. Its requests' errors name their fields; `flags` lists the options that set a field
+/// whose option is not "--" + its name with '_' as '-' (e.g. speed_kt: --speed).
 struct Command {
   CLI::App* app;
   std::function<int()> run;
+  std::map<std::string, std::string> flags = {};
 };
 
 Command add_info_command(CLI::App& app);                                         // weather_commands.cpp

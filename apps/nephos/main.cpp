@@ -11,8 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "cli_support.hpp"
 #include "command.hpp"
-#include "lbm_mpi.hpp"
+#if NEPHOS_HAVE_MPI
+#include "nephos/lbm/mpi/slabs.hpp"
+#endif
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/log.hpp"
@@ -38,6 +41,18 @@ void reject_empty_values(CLI::App& app, const std::set<std::string>& allowed) {
   for (CLI::App* sub : app.get_subcommands({})) reject_empty_values(*sub, allowed);
 }
 
+// The error as the command line shows it: a request field's name as the option that sets it
+// (size: --size). Keys of configuration files (they carry the file) and keys no option of the
+// command sets stay as they are.
+Error as_shown(const Error& e, const app::Command& command) {
+  ErrorContext context = e.context();
+  if (context.key.empty() || !context.file.empty() || context.key.rfind("--", 0) == 0) return e;
+  const std::string option = app::option_for_key(*command.app, context.key, command.flags);
+  if (option.empty()) return e;
+  context.key = option;
+  return Error(e.message(), context);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -46,26 +61,25 @@ int main(int argc, char** argv) {
   // message (HDF5 1.10.8): so no clean-up at exit. Every file is closed explicitly before then.
   // Must precede any HDF5 call.
   H5dont_atexit();
-  // Under mpirun (several ranks) MPI is initialised for `nephos lbm`; plain runs never touch MPI.
-  struct MpiSession {
-    bool on;
-    MpiSession(int& c, char**& v) : on(app::mpi_launched()) {
-      if (on) app::mpi_init(c, v);
-    }
-    ~MpiSession() {
-      if (on) app::mpi_finalize();
-    }
-  } mpi_session(argc, argv);
-  // One line per message, written at once: under mpirun every rank reports (a failure on one
-  // rank stops all of them, each with the first failing rank's message), and the lines of
-  // ranks other than 0 say which rank they come from.
+  // Under mpirun (several processes) MPI is initialised for `nephos lbm`; plain runs never
+  // touch MPI.
+#if NEPHOS_HAVE_MPI
+  lbm::mpi::Session mpi(argc, argv);
+  const int rank = mpi.rank(), ranks = mpi.size();
+#else
+  const int rank = 0, ranks = 1;
+#endif
+  // One line per message, written at once: under mpirun every process reports (a failure on
+  // one stops all of them, each with the first failing process's message), and the lines of
+  // processes other than 0 say which process they come from.
   auto report = [&](const char* kind, const std::string& message) {
-    const std::string who =
-        mpi_session.on && app::mpi_rank() > 0 ? fmt::format(" (rank {} of {})", app::mpi_rank(), app::mpi_size()) : "";
+    const std::string who = rank > 0 ? fmt::format(" (rank {} of {})", rank, ranks) : "";
     std::cerr << fmt::format("nephos{}: {}: {}\n", who, kind, message) << std::flush;
   };
   CLI::App app{"nephos: real weather data to three-dimensional clouds"};
   app.require_subcommand(1);
+  // The program's options are also taken after the subcommand (nephos lbm --seed 7 ...).
+  app.fallthrough();
   app.set_version_flag("--version", std::string("nephos ") + NEPHOS_VERSION);
   app::GlobalOptions g;
   app.add_flag("-v,--verbose", g.verbose, "Log debug detail");
@@ -98,15 +112,17 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : exit_input_error;
   }
 
+  const app::Command* chosen = nullptr;
+  for (const auto& command : commands)
+    if (*command.app) chosen = &command;
   try {
     init_logging(g.quiet ? Verbosity::quiet : g.verbose ? Verbosity::verbose : Verbosity::normal);
     Progress::set_enabled(!g.quiet);
     set_threads(g.threads);
     remove_temporaries_on_interrupt();  // Ctrl-C or kill leaves no NAME.tmpPID behind
-    for (const auto& command : commands)
-      if (*command.app) return command.run();
+    if (chosen) return chosen->run();
   } catch (const Error& e) {
-    report("error", e.what());
+    report("error", chosen ? as_shown(e, *chosen).what() : e.what());
     return exit_input_error;
   } catch (const std::bad_alloc&) {
     // The commands check their big allocations against the machine's memory first; this is

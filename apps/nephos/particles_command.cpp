@@ -21,8 +21,10 @@
 #include "nephos/particles/particles_io.hpp"
 #include "nephos/particles/scene.hpp"
 #include "nephos/particles/wrf_reader.hpp"
+#include "nephos/realtime/flight_job.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/weather/reader.hpp"
+#include "nephos/weather/source.hpp"
 
 namespace fs = std::filesystem;
 
@@ -50,43 +52,43 @@ struct ParticlesOptions {
 };
 
 int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
-  const auto [width, height] = parse_size(o.size);
-  if (o.frames < 1) throw ValueError("must be >= 1", {.key = "--frames"});
-  if (o.count < 1) throw ValueError("must be >= 1", {.key = "--count"});
-  const bool transparent = transparent_background(o.background);
+  const auto [width, height] = parse_size(o.size, "size");
+  if (o.frames < 1) throw ValueError("must be >= 1", {.key = "frames"});
+  if (o.count < 1) throw ValueError("must be >= 1", {.key = "count"});
+  const bool transparent = realtime::transparent_background(o.background);
   // Per particle: its state, motion, shading, sort keys and instance data, about 256 B.
-  require_memory(256.0 * static_cast<double>(o.count), "--count", fmt::format("{} particles", o.count));
-  require_range(o.frame_minutes, 1e-3, 1e6, "--frame-minutes", "the time between frames [min]");
-  require_range(o.lod_l0_km, 0, 1e5, "--lod-l0-km", "eq. 13's L0 [km] (0: a quarter of the region)");
+  require_memory(256.0 * static_cast<double>(o.count), "count", fmt::format("{} particles", o.count));
+  require_range(o.frame_minutes, 1e-3, 1e6, "frame_minutes", "the time between frames [min]");
+  require_range(o.lod_l0_km, 0, 1e5, "lod_l0_km", "eq. 13's L0 [km] (0: a quarter of the region)");
   std::vector<double> camera;  // X_KM, Y_KM, ALT_KM, HEADING_DEG, PITCH_DEG; empty: the scene's default
   if (!o.camera.empty()) {
-    camera = parse_numbers(o.camera, 5, "--camera", "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG");
-    require_range(camera[2], 0, 1e5, "--camera", "the camera's altitude [km]");
-    require_range(camera[4], -90, 90, "--camera", "the camera's pitch [deg]");
+    camera = parse_numbers(o.camera, 5, "camera", "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG");
+    require_range(camera[2], 0, 1e5, "camera", "the camera's altitude [km]");
+    require_range(camera[4], -90, 90, "camera", "the camera's pitch [deg]");
   }
-  if (!o.wrf.empty() && !o.weather.empty()) throw ValueError("give --weather or --wrf, not both", {.key = "--wrf"});
+  if (!o.wrf.empty() && !o.weather.empty()) throw ValueError("give --weather or --wrf, not both", {.key = "wrf"});
   particles::ParticleWeather pw;
   if (!o.wrf.empty()) {
     std::optional<particles::LatLonRegion> region;
-    if (!o.region.empty()) region = particles::LatLonRegion::parse(o.region, "--region");
+    if (!o.region.empty()) region = particles::LatLonRegion::parse(o.region, "region");
     pw = particles::read_wrf(o.wrf, region);
   } else {
     std::vector<weather::WeatherGrid> grids;
-    if (o.weather.empty()) grids.push_back(weather::open_weather(default_weather()));
+    if (o.weather.empty()) grids.push_back(weather::open_weather(weather::default_weather_file()));
     for (const auto& f : o.weather)  // every valid time of every file
       for (auto& w : weather::open_weather_times(f)) grids.push_back(std::move(w));
     pw = particles::from_weather_grids(
-        grids, o.region.empty() ? particles::default_gfs_region : particles::LatLonRegion::parse(o.region, "--region"));
+        grids, o.region.empty() ? particles::default_gfs_region : particles::LatLonRegion::parse(o.region, "region"));
   }
   const int factor = o.refine > 0    ? o.refine
                      : o.wrf.empty() ? particles::refine_factor_for(pw.grid, particles::default_refined_cell_m)
                                      : 1;
-  if (o.refine < 0) throw ValueError("must be >= 0", {.key = "--refine"});
+  if (o.refine < 0) throw ValueError("must be >= 0", {.key = "refine"});
   if (factor > 1) {
     // The refined frames: three column fields and four per wind level, 4 B each.
     const double columns = static_cast<double>(pw.grid.cols) * pw.grid.rows * factor * factor;
     require_memory(columns * static_cast<double>(pw.frames.size()) * (3 + 4 * pw.frames.front().wind.levels) * 4.0,
-                   "--refine", fmt::format("the weather refined {} x {}", factor, factor));
+                   "refine", fmt::format("the weather refined {} x {}", factor, factor));
     pw = particles::refine(pw, factor);
   }
   particles::SceneParams sp;
@@ -98,7 +100,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
   if (o.transmission == "beer")
     sp.illumination.transmission = particles::Transmission::beer;
   else if (o.transmission != "two-stream")
-    throw ValueError("must be 'two-stream' or 'beer', got '" + o.transmission + "'", {.key = "--transmission"});
+    throw ValueError("must be 'two-stream' or 'beer', got '" + o.transmission + "'", {.key = "transmission"});
   spdlog::info("particle weather: {} columns x {} rows of {:.1f} x {:.1f} km, {} time(s), max optical thickness {:.1f}",
                pw.grid.cols, pw.grid.rows, pw.grid.dx_m / 1000, pw.grid.dy_m / 1000, pw.frames.size(),
                pw.frames.front().columns.max_tau());
@@ -140,7 +142,7 @@ int run_particles(const ParticlesOptions& o, const GlobalOptions& g) {
     table << fmt::format("{},{},{:.0f},{},{},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f}\n", f, scene.time_at(t).iso(), t,
                          scene.current().size(), tm.drawn, motion_ms, tm.lod_ms, tm.light_ms, tm.sort_ms,
                          st.milliseconds);
-    write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
+    realtime::write_frame_png(out / fmt::format("frame_{:04d}.png", f), renderer, transparent);
     if (!o.no_ply)
       particles::write_particles_ply(out / fmt::format("particles_{:04d}.ply", f), scene.current(), scene.shade_all(t),
                                      w, scene.time_at(t));
@@ -173,7 +175,9 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   part->add_option("--refine", o->refine, "Split each weather cell NxN (0: GFS to <= 30 km cells, WRF unchanged)")
       ->capture_default_str();
   part->add_flag("--no-ply", o->no_ply, "Do not write the particle set as PLY");
-  add_background_option(part, o->background);
+  part->add_option("--background", o->background,
+                   "sky, or transparent: RGBA frames (alpha = cloud coverage) to composite over a map or terrain")
+      ->capture_default_str();
   part->add_option("--out", o->out, "Output directory")->capture_default_str();
   return {part, [o, &g] { return run_particles(*o, g); }};
 }

@@ -24,7 +24,7 @@ namespace nephos::app {
 namespace {
 
 struct MasksOptions {
-  WeatherSource weather;
+  WeatherOptions weather;
   std::string out = "out";
   std::string config;
   int png_width = 1440;
@@ -32,13 +32,8 @@ struct MasksOptions {
 
 int run_masks(const MasksOptions& o, const GlobalOptions& g) {
   const auto t0 = std::chrono::steady_clock::now();
-  weather::MaskParams params;
-  if (!o.config.empty()) {
-    const ParamDict dict = ParamDict::from_file(o.config);
-    params = weather::MaskParams::from(dict);
-    dict.check_unused();
-  }
-  const weather::WeatherGrid w = load_weather(o.weather, g.seed);
+  const weather::MaskParams params = weather::MaskParams::from_file(o.config);
+  const weather::WeatherGrid w = weather::load_weather(weather_source(o.weather), g.seed);
   const auto& m = w.metadata();
   spdlog::info("valid {} (run {} + {:g} h), {}", m.valid_time.iso(), m.reference_time.iso(), m.forecast_step_h,
                w.grid().describe());

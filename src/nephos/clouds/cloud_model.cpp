@@ -700,4 +700,14 @@ void advance_scene(CloudScene& scene, double hours, const CloudModelParams& para
   }
 }
 
+ModelConfig read_model_config(const std::filesystem::path& path) {
+  ModelConfig c;
+  if (path.empty()) return c;
+  const ParamDict dict = ParamDict::from_file(path);
+  c.cloud = CloudModelParams::from(dict);
+  c.masks = weather::MaskParams::from(dict);
+  dict.check_unused();
+  return c;
+}
+
 }  // namespace nephos::clouds

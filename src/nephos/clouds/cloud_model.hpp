@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -192,6 +193,16 @@ class CloudShell {
   std::vector<float> barrier_table_;
   double barrier_z0_ = 0;
 };
+
+/// The tables of a configuration file the cloud model and the masks read: [clouds.*],
+/// [textures], [displacement] and [masks.*] / [cloud_fraction].
+struct ModelConfig {
+  CloudModelParams cloud;
+  weather::MaskParams masks;
+};
+/// Reads `path` (every key must be known: ConfigError naming it otherwise); the defaults when
+/// `path` is empty.
+ModelConfig read_model_config(const std::filesystem::path& path);
 
 /// Everything needed to render clouds of several types from one weather state.
 struct CloudScene {

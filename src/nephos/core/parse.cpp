@@ -50,4 +50,45 @@ void require_memory(double bytes, const std::string& key, const std::string& wha
                         {.key = key});
 }
 
+void require_image_size(int width, int height, const std::string& key) {
+  if (width < 1 || height < 1 || width > max_image_edge_px || height > max_image_edge_px)
+    throw ValueError(fmt::format("expected a width and height in 1..{}, got {}x{}", max_image_edge_px, width, height),
+                     {.key = key});
+}
+
+std::pair<int, int> parse_size(const std::string& text, const std::string& key) {
+  int w = 0, h = 0;
+  char x = 0;
+  std::stringstream ss(text);
+  if (!(ss >> w >> x >> h) || x != 'x' || w < 1 || h < 1 || w > max_image_edge_px || h > max_image_edge_px || !ss.eof())
+    throw ValueError(fmt::format("expected WIDTHxHEIGHT (1..{}), got '{}'", max_image_edge_px, text), {.key = key});
+  return {w, h};
+}
+
+std::vector<std::string> split_list(const std::string& list, const std::string& key) {
+  std::vector<std::string> out;
+  std::string item;
+  std::stringstream ss(list);
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  if (out.empty()) throw ValueError("empty list", {.key = key});
+  return out;
+}
+
+std::vector<std::string> split_distinct(const std::string& list, const std::string& key) {
+  std::vector<std::string> items = split_list(list, key);
+  for (std::size_t i = 0; i < items.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (items[i] == items[j]) throw ValueError("'" + items[i] + "' is listed twice", {.key = key});
+  return items;
+}
+
+UtcTime parse_time(const std::string& text, const std::string& key) {
+  try {
+    return UtcTime::parse(text);
+  } catch (const ValueError& e) {
+    throw ValueError(e.message(), {.key = key});
+  }
+}
+
 }  // namespace nephos

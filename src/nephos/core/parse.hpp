@@ -2,7 +2,10 @@
 // Parsing of small textual option values shared by the command line and the readers.
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "nephos/core/time.hpp"
 
 namespace nephos {
 
@@ -25,5 +28,20 @@ void require_memory(double bytes, const std::string& key, const std::string& wha
 
 /// This machine's physical memory [bytes].
 double physical_memory_bytes();
+
+/// The largest image edge any renderer takes [pixels] (a 20 000^2 image of ~50 B per pixel
+/// already needs 20 GB).
+inline constexpr int max_image_edge_px = 20000;
+/// Throws ValueError naming `key` unless 1 <= width, height <= max_image_edge_px.
+void require_image_size(int width, int height, const std::string& key);
+/// "WIDTHxHEIGHT" as (width, height), checked by require_image_size; ValueError naming `key`.
+std::pair<int, int> parse_size(const std::string& text, const std::string& key);
+
+/// A comma-separated list, empty items dropped; ValueError naming `key` if nothing is left.
+std::vector<std::string> split_list(const std::string& list, const std::string& key);
+/// split_list() of a list whose items must be distinct (bands, cloud types).
+std::vector<std::string> split_distinct(const std::string& list, const std::string& key);
+/// UtcTime::parse() whose errors name `key`.
+UtcTime parse_time(const std::string& text, const std::string& key);
 
 }  // namespace nephos

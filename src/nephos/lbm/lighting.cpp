@@ -9,6 +9,16 @@
 #include "nephos/core/error.hpp"
 
 namespace nephos::lbm {
+
+void LightingParams::set_sun(double azimuth_deg, double elevation_deg, const std::string& key) {
+  if (!(std::isfinite(azimuth_deg) && elevation_deg > 0 && elevation_deg <= 90))
+    throw ValueError(fmt::format("expected (azimuth, elevation) with a finite azimuth and an elevation in (0, 90] "
+                                 "deg, got ({:g}, {:g})",
+                                 azimuth_deg, elevation_deg),
+                     {.key = key});
+  sun_azimuth_deg = azimuth_deg;
+  sun_elevation_deg = elevation_deg;
+}
 namespace {
 
 struct Dir {

@@ -15,6 +15,7 @@
 // Geist et al.'s D = (2/sigma_t - 1) / (4 (1 + sigma_a)) at sigma_a = 0 (tested).
 #include <array>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "nephos/core/huge_page_allocator.hpp"
@@ -42,6 +43,10 @@ struct LightingParams {
   double tolerance = 1e-5;                               ///< steady state: relative change of total photons per step
   int max_iterations = 5000;
   bool periodic = false;  ///< tests: a periodic box without sun
+
+  /// Sets the sun: a finite azimuth and an elevation in (0, 90] deg (a sun on or below the
+  /// horizon lights nothing); ValueError naming `key` otherwise.
+  void set_sun(double azimuth_deg, double elevation_deg, const std::string& key);
 };
 
 struct PhotonBalance {

@@ -47,7 +47,7 @@ Percolation::Percolation(const Grid3& coarse, const std::vector<float>& vapour, 
                          std::uint64_t seed, int y_begin, int y_end, int halo)
     : coarse_(coarse), p_(params), seed_(seed), y_begin_(y_begin), y_end_(y_end), halo_(halo) {
   const int k = p_.refinement;
-  if (k < 1 || k > 16) throw ValueError("refinement K must be 1..16", {.key = "--percolation"});
+  if (k < 1 || k > 16) throw ValueError("refinement K must be 1..16", {.key = "percolation"});
   // The thresholds rho10 -/+ eps and the probabilities must be numbers in their ranges (a NaN
   // threshold would silently make every site dry).
   if (!(p_.rho10 > 0 && std::isfinite(p_.rho10)))

@@ -64,7 +64,7 @@ std::string band_names() {
 const Band& band(const std::string& name) {
   for (const auto& b : bands())
     if (b.name == name) return b;
-  throw ValueError("unknown band '" + name + "' (known: " + band_names() + ")", {.key = "--bands"});
+  throw ValueError("unknown band '" + name + "' (known: " + band_names() + ")", {.key = "bands"});
 }
 
 double band_planck(const Band& b, double t_k) {

@@ -106,7 +106,7 @@ int refine_factor_for(const PlanarGrid& g, double target_m) {
 
 ParticleWeather refine(const ParticleWeather& w, int factor) {
   if (factor < 1)
-    throw ValueError("the refinement factor must be >= 1, got " + std::to_string(factor), {.key = "--refine"});
+    throw ValueError("the refinement factor must be >= 1, got " + std::to_string(factor), {.key = "refine"});
   w.validate();
   if (factor == 1) return w;
   const PlanarGrid& g = w.grid;
@@ -233,7 +233,7 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
   if (rows.size() < 2 || cols.size() < 2)
     throw ValueError("the region holds " + std::to_string(cols.size()) + " x " + std::to_string(rows.size()) +
                          " grid columns of " + g.describe() + "; at least 2 x 2 are needed",
-                     {.key = "--region"});
+                     {.key = "region"});
   const double first_lon = region.lon0_deg + std::fmod(g.lon(cols.front()) - region.lon0_deg + 720.0, 360.0);
 
   ParticleWeather pw;

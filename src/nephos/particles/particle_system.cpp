@@ -35,10 +35,10 @@ double selection_probability(const CloudColumns& columns, std::size_t c, double 
 }
 
 Particles generate(const PlanarGrid& grid, const CloudColumns& columns, const GenerationParams& p) {
-  if (!(p.k > 0)) throw ValueError(fmt::format("eq. 5's K must be > 0, got {:g}", p.k), {.key = "--k"});
+  if (!(p.k > 0)) throw ValueError(fmt::format("eq. 5's K must be > 0, got {:g}", p.k), {.key = "k"});
   if (columns.tau.size() != grid.size()) throw ValueError("columns do not match the grid");
   const double lmax = columns.max_tau();
-  if (!(lmax > 0)) throw ValueError("no cloudy column (optical thickness > 0) in the region", {.key = "--region"});
+  if (!(lmax > 0)) throw ValueError("no cloudy column (optical thickness > 0) in the region", {.key = "region"});
   double volume_m3 = 0;
   for (std::size_t c = 0; c < grid.size(); ++c)
     if (columns.tau[c] > 0)
@@ -143,7 +143,7 @@ double lod_band_distance(int m, const LodParams& lod) { return lod.l0_m * std::p
 
 LodSelection select_lod(const Particles& p, const glm::dvec3& camera, const LodParams& lod, std::uint64_t seed) {
   if (!(lod.l0_m > 0) || !(lod.band_ratio > 1))
-    throw ValueError("LOD needs L0 > 0 and a band ratio > 1", {.key = "--lod-l0-km"});
+    throw ValueError("LOD needs L0 > 0 and a band ratio > 1", {.key = "lod_l0_km"});
   const std::size_t n = p.size();
   std::vector<int> band(n);
   std::vector<std::uint64_t> key(n);

@@ -192,7 +192,7 @@ ParticleWeather read_wrf(const std::filesystem::path& path, const std::optional<
         i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
       }
     if (i0 >= nx || i1 < i0 + 1 || j1 < j0 + 1)
-      throw ValueError("fewer than 2 x 2 WRF cells of " + f.path() + " lie in the region", {.key = "--region"});
+      throw ValueError("fewer than 2 x 2 WRF cells of " + f.path() + " lie in the region", {.key = "region"});
   }
 
   ParticleWeather pw;

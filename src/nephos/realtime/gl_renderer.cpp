@@ -374,7 +374,7 @@ std::array<std::uint8_t, 4> SpriteRenderer::sky_colour() { return {110, 160, 225
 GlApi gl_api_from_name(const std::string& name) {
   if (name == "gles3") return GlApi::gles30;
   if (name == "gl33") return GlApi::gl33;
-  throw ValueError("expected gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core), got '" + name + "'", {.key = "--gl"});
+  throw ValueError("expected gles3 (OpenGL ES 3.0) or gl33 (OpenGL 3.3 core), got '" + name + "'", {.key = "gl"});
 }
 
 const char* name(GlApi api) { return api == GlApi::gl33 ? "gl33" : "gles3"; }
@@ -443,7 +443,7 @@ void SpriteRenderer::init_gl(std::uint64_t seed) {
   if (w_ > max_side || h_ > max_side)
     throw ValueError(
         fmt::format("a {}x{} frame exceeds this OpenGL's largest framebuffer, {} pixels per side", w_, h_, max_side),
-        {.key = "--size"});
+        {.key = "size"});
   glGenFramebuffers(1, &m.fbo);
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   glGenRenderbuffers(1, &m.colour);

@@ -43,7 +43,7 @@ WeatherCode parse_weather_code(const std::string& code) {
   if (!std::regex_match(c, m, re))
     throw ValueError(
         fmt::format("weather code '{}' is not d|n + cloudiness 0-6 + precipitation 0-4 + type 0-2 (e.g. d210)", code),
-        {.key = "--code"});
+        {.key = "code"});
   return {m[1] == "d", m[2].str()[0] - '0', m[3].str()[0] - '0', m[4].str()[0] - '0'};
 }
 
@@ -125,7 +125,7 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
         throw ValueError("cloud group '" + tok +
                              "' is malformed: expected FEW|SCT|BKN|OVC and a 3-digit base in hundreds of feet, "
                              "optionally CB or TCU (e.g. BKN025CB), or VV and 3 digits",
-                         {.key = "--metar"});
+                         {.key = "metar"});
       continue;  // wind, visibility, weather, temperature, pressure groups
     }
     any = true;
@@ -159,7 +159,7 @@ CloudRecipe recipe_from_metar(const std::string& metar) {
   if (!any)
     throw ValueError("no cloud group (FEW/SCT/BKN/OVC/VV/CAVOK/SKC/CLR/NSC/NCD) with a reported base in METAR '" +
                          metar + "'" + (skipped.empty() ? "" : " (without a base: " + skipped + ")"),
-                     {.key = "--metar"});
+                     {.key = "metar"});
   if (!skipped.empty()) spdlog::warn("METAR: cloud groups without a reported base are left out: {}", skipped);
   return r;
 }
@@ -181,7 +181,7 @@ CloudRecipe recipe_from_weather(const weather::WeatherMasks& masks, const weathe
       }))
     throw ValueError(fmt::format("no weather at {:.2f}, {:.2f}: outside the weather grid ({}) or missing there",
                                  lat_deg, lon_deg, masks.grid.describe()),
-                     {.file = w.metadata().source, .key = "--position"});
+                     {.file = w.metadata().source, .key = "position"});
   const double cu = frac(CloudType::low_cumulus), st = frac(CloudType::low_stratus);
   const double as = frac(CloudType::altostratus), ci = frac(CloudType::cirrus);
   const int n_cu = static_cast<int>(std::lround(200 * cu)), n_st = static_cast<int>(std::lround(200 * st));

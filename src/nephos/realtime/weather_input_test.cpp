@@ -119,7 +119,7 @@ TEST(Metar, MalformedCloudGroupIsAnError) {
       ADD_FAILURE() << group << ": expected a ValueError";
     } catch (const ValueError& e) {
       EXPECT_NE(std::string(e.what()).find(group), std::string::npos) << e.what();
-      EXPECT_EQ(e.context().key, "--metar");
+      EXPECT_EQ(e.context().key, "metar");
     }
   }
 }
@@ -155,7 +155,7 @@ TEST(GfsRecipe, HandCheckedCellsOfTheEmbeddedSample) {
       recipe_from_weather(regional, w, lat, lon);
       ADD_FAILURE() << "no error at " << lat << ", " << lon;
     } catch (const ValueError& e) {
-      EXPECT_NE(std::string(e.what()).find("--position"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("position"), std::string::npos) << e.what();
       EXPECT_NE(std::string(e.what()).find("outside the weather grid"), std::string::npos) << e.what();
     }
   }

@@ -375,7 +375,7 @@ struct BandTables {
   std::vector<const PlanckTable*> planck;
   explicit BandTables(const std::vector<std::string>& names) {
     if (names.size() > optics::max_band_count)
-      throw ValueError(fmt::format("at most {} bands per render", optics::max_band_count), {.key = "--bands"});
+      throw ValueError(fmt::format("at most {} bands per render", optics::max_band_count), {.key = "bands"});
     for (const auto& name : names) {
       bands.push_back(&optics::band(name));
       planck.push_back(&planck_table(*bands.back()));
@@ -665,7 +665,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   if (scene.shells.empty()) throw ValueError("the scene has no cloud shell to render", {.key = "types"});
   const int k = params.samples_per_axis;
   if (k < 1 || k > 16)
-    throw ValueError(fmt::format("samples per pixel must be k^2 with k = 1..16, got k = {}", k), {.key = "--samples"});
+    throw ValueError(fmt::format("samples per pixel must be k^2 with k = 1..16, got k = {}", k), {.key = "samples"});
   Progress progress("render", static_cast<std::size_t>(sensor.height) * scene.shells.size() *
                                   static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
   const BandTables tables(params.bands);

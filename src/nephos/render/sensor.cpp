@@ -14,7 +14,7 @@ Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth:
                 int width, int height) {
   if (!(fov_deg > 0 && fov_deg < 179))
     throw ValueError(fmt::format("field of view {} deg must be in (0, 179)", fov_deg), {.key = "fov"});
-  if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "--size"});
+  if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "size"});
   Sensor s;
   s.position = pos;
   s.forward = glm::normalize(forward);
@@ -82,19 +82,19 @@ Sensor parse_sensor(const std::string& spec, int width, int height) {
   auto check_longitude = [](double lon_deg, const char* orbit) {
     if (!(lon_deg >= -180 && lon_deg <= 360))
       throw ValueError(fmt::format("{} longitude must be in [-180, 360] deg east, got {:g}", orbit, lon_deg),
-                       {.key = "--sensor"});
+                       {.key = "sensor"});
   };
   if (spec.rfind("geo:", 0) == 0) {
-    const double lon_deg = parse_numbers(spec.substr(4), 1, "--sensor", "geo:LON")[0];
+    const double lon_deg = parse_numbers(spec.substr(4), 1, "sensor", "geo:LON")[0];
     check_longitude(lon_deg, "GEO");
     return Sensor::geostationary(lon_deg, width, height);
   }
   if (spec.rfind("leo:", 0) == 0) {
-    const auto v = parse_numbers(spec.substr(4), 4, "--sensor", "leo:LAT,LON,ALT_KM,FOV_DEG");
+    const auto v = parse_numbers(spec.substr(4), 4, "sensor", "leo:LAT,LON,ALT_KM,FOV_DEG");
     if (!(v[0] >= -90 && v[0] <= 90))
-      throw ValueError(fmt::format("LEO latitude must be in [-90, 90] deg, got {:g}", v[0]), {.key = "--sensor"});
+      throw ValueError(fmt::format("LEO latitude must be in [-90, 90] deg, got {:g}", v[0]), {.key = "sensor"});
     check_longitude(v[1], "LEO");
-    if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "--sensor"});
+    if (v[2] <= 0) throw ValueError("LEO altitude must be > 0 km", {.key = "sensor"});
     return Sensor::nadir(v[0], v[1], v[2] * 1e3, v[3], width, height);
   }
   if (std::filesystem::exists(spec)) {
@@ -104,7 +104,7 @@ Sensor parse_sensor(const std::string& spec, int width, int height) {
     return s;
   }
   throw ValueError("sensor '" + spec + "' is neither geo:LON, leo:LAT,LON,ALT_KM,FOV_DEG nor an existing TOML file",
-                   {.key = "--sensor"});
+                   {.key = "sensor"});
 }
 
 }  // namespace nephos::render

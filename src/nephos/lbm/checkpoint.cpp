@@ -1,0 +1,290 @@
+// The checkpoint format of the water model (save, load, slabs' in-place writes, nephos info):
+// a header of the lattice, step and [water] parameters, then every population as FP32.
+#include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
+#include "nephos/core/atomic_file.hpp"
+#include "nephos/core/error.hpp"
+#include "nephos/lbm/water_model.hpp"
+
+namespace nephos::lbm {
+
+namespace {
+// A NaN's sign and payload depend on the order of operations (water_model.cpp): every NaN is
+// stored as the one quiet NaN, 0x7FC00000.
+void canonical_nans(float* v, std::size_t n) {
+  for (std::size_t k = 0; k < n; ++k)
+    if (std::isnan(v[k])) v[k] = std::numeric_limits<float>::quiet_NaN();
+}
+}  // namespace
+
+namespace {
+// CK3: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
+// equal states could give different files); CK3 adds the population storage (CK2 is read as
+// FP32 storage). Populations are written as FP32 whatever the storage: FP16 values convert
+// exactly, so a resumed run continues bit-identically either way.
+constexpr char magic[16] = "NEPHOS-LBM-CK3";
+constexpr char magic_ck2[16] = "NEPHOS-LBM-CK2";
+constexpr int param_count = 19;
+
+std::array<double, param_count> params_to_array(const WaterModelParams& p) {
+  return {p.rho10,
+          p.rho20,
+          p.rest_fraction,
+          p.xi_vapour,
+          p.xi_temperature,
+          p.g12,
+          p.g22,
+          p.buoyancy,
+          p.buoyancy_reference,
+          p.temperature_bottom,
+          p.temperature_top,
+          static_cast<double>(p.silos),
+          p.silo_radius_min,
+          p.silo_radius_max,
+          p.silo_height_min,
+          p.silo_height_max,
+          p.vapour_background,
+          p.periodic_z ? 1.0 : 0.0,
+          p.storage == Storage::fp16 ? 1.0 : 0.0};
+}
+
+WaterModelParams params_from_array(const std::array<double, param_count>& a) {
+  WaterModelParams p;
+  p.rho10 = a[0], p.rho20 = a[1], p.rest_fraction = a[2], p.xi_vapour = a[3], p.xi_temperature = a[4];
+  p.g12 = a[5], p.g22 = a[6], p.buoyancy = a[7], p.buoyancy_reference = a[8];
+  p.temperature_bottom = a[9], p.temperature_top = a[10], p.silos = static_cast<int>(a[11]);
+  p.silo_radius_min = a[12], p.silo_radius_max = a[13], p.silo_height_min = a[14], p.silo_height_max = a[15];
+  p.vapour_background = a[16], p.periodic_z = a[17] != 0, p.storage = a[18] != 0 ? Storage::fp16 : Storage::fp32;
+  return p;
+}
+
+// The checkpoint file: magic, (nx, ny, nz, step), the parameters, then both components'
+// populations of the whole lattice, direction-major and unpadded (f[i * cells + cell]), every
+// NaN as 0x7FC00000 (canonical_nans()).
+struct CheckpointHeader {
+  Grid3 grid;
+  long step;
+  WaterModelParams params;
+};
+
+void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
+  os.write(magic, sizeof magic);
+  const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
+  os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
+  const auto params = params_to_array(h.params);
+  os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
+}
+// Bytes before the populations; population i of component c at cell `cell` follows at
+// ((c q + i) cells + cell) floats.
+constexpr std::size_t checkpoint_header_bytes = sizeof magic + 4 * sizeof(std::int64_t) + param_count * sizeof(double);
+// Where population i of component c of global cell `cell` lies among a checkpoint's populations
+// (in floats from their start), for a lattice of `cells` cells.
+std::size_t checkpoint_value_index(int c, int i, std::size_t cells, std::size_t cell) {
+  return (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * cells + cell;
+}
+
+// The error when a checkpoint cannot be opened for writing, with the system's reason.
+IoError cannot_open_for_writing(const std::filesystem::path& file) {
+  return IoError(std::string("cannot open checkpoint for writing: ") + std::strerror(errno), {.file = file.string()});
+}
+
+// direction(c, i, out) fills out[cell] with population i of component c, for every cell.
+void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader& h,
+                      const std::function<void(int, int, float*)>& direction) {
+  AtomicFile out(path);
+  {
+    std::ofstream os(out.temp_path(), std::ios::binary);
+    if (!os) throw cannot_open_for_writing(path);
+    write_checkpoint_header(os, h);
+    std::vector<float> values(h.grid.cells());
+    for (int c = 0; c < 2; ++c)
+      for (int i = 0; i < d3q19::q; ++i) {
+        direction(c, i, values.data());
+        canonical_nans(values.data(), values.size());
+        os.write(reinterpret_cast<const char*>(values.data()),
+                 static_cast<std::streamsize>(values.size() * sizeof(float)));
+      }
+    if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = path.string()});
+  }
+  out.commit();
+}
+
+// Reads the header and leaves `is` at the populations.
+CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem::path& path) {
+  require_input_file(path, "an lbm checkpoint");
+  if (!is) throw IoError("cannot open checkpoint", {.file = path.string()});
+  char m[16] = {};
+  is.read(m, sizeof m);
+  if (std::memcmp(m, "NEPHOS-LBM-CK1", 15) == 0)
+    throw FormatError("checkpoint from an older nephos (format CK1): rerun the simulation", {.file = path.string()});
+  const bool ck2 = std::memcmp(m, magic_ck2, sizeof magic_ck2) == 0;
+  if (!ck2 && std::memcmp(m, magic, sizeof magic) != 0)
+    throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
+  std::int64_t hdr[4];
+  is.read(reinterpret_cast<char*>(hdr), sizeof hdr);
+  std::array<double, param_count> params{};  // CK2 has no storage field: FP32
+  is.read(reinterpret_cast<char*>(params.data()),
+          static_cast<std::streamsize>((ck2 ? param_count - 1 : param_count) * sizeof(double)));
+  if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
+    throw FormatError("corrupt checkpoint header", {.file = path.string()});
+  // Every parameter a number and the silo count an integer in range, before any is used (a
+  // NaN would run the model into NaN densities; casting it to int is undefined).
+  if (!std::all_of(params.begin(), params.end(), [](double v) { return std::isfinite(v); }) ||
+      !(params[11] >= 0 && params[11] <= max_silos && params[11] == std::floor(params[11])))
+    throw FormatError("corrupt checkpoint header (a parameter is not a number or out of range)",
+                      {.file = path.string()});
+  return {Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, hdr[3],
+          params_from_array(params)};
+}
+
+}  // namespace
+
+void WaterModel::save(const std::filesystem::path& path) const {
+  if (halo_ != 0)
+    throw ValueError(
+        "a slab cannot save itself: create_checkpoint() the whole lattice's file, then write_owned() every slab");
+  const std::size_t n = g_.cells(), stride = g_.direction_stride();
+  write_checkpoint(path, {g_, step_, p_},
+                   [&](int c, int i, float* out) { f_[c].read(static_cast<std::size_t>(i) * stride, n, out); });
+}
+
+WaterModel WaterModel::load(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  WaterModel w(h.grid, h.params);
+  w.step_ = h.step;
+  const std::size_t n = h.grid.cells(), stride = h.grid.direction_stride();
+  std::vector<float> values(n);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i) {
+      is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(n * sizeof(float)));
+      if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+      w.f_[c].write(static_cast<std::size_t>(i) * stride, n, values.data());
+    }
+  return w;
+}
+
+Grid3 WaterModel::checkpoint_grid(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  return read_checkpoint_header(is, path).grid;
+}
+
+bool WaterModel::is_checkpoint(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  char m[11] = {};
+  return is.read(m, sizeof m) && std::memcmp(m, "NEPHOS-LBM-", sizeof m) == 0;
+}
+
+std::string WaterModel::describe_checkpoint(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  const std::streamoff populations = is.tellg();
+  const bool ck2 = populations < static_cast<std::streamoff>(checkpoint_header_bytes);
+  const std::uintmax_t expected =
+      static_cast<std::uintmax_t>(populations) + 2 * d3q19::q * h.grid.cells() * sizeof(float);
+  const std::uintmax_t size = std::filesystem::file_size(path);
+  const WaterModelParams& p = h.params;
+  std::string out = fmt::format("{}\n  nephos lbm checkpoint, format {}\n", path.string(), ck2 ? "CK2" : "CK3");
+  out += fmt::format("  lattice        {} ({} cells)\n", h.grid.describe(), h.grid.cells());
+  out += fmt::format("  step           {}\n", h.step);
+  out += fmt::format("  storage        {}\n", p.storage == Storage::fp16 ? "fp16" : "fp32");
+  out +=
+      fmt::format("  populations    {}\n",
+                  size == expected ? fmt::format("complete ({} bytes)", size)
+                                   : fmt::format("TRUNCATED: {} of {} bytes (it cannot be resumed)", size, expected));
+  out += "  [water] parameters:\n";
+  const std::pair<const char*, double> values[] = {{"rho10", p.rho10},
+                                                   {"rho20", p.rho20},
+                                                   {"rest_fraction", p.rest_fraction},
+                                                   {"xi_vapour", p.xi_vapour},
+                                                   {"xi_temperature", p.xi_temperature},
+                                                   {"g12", p.g12},
+                                                   {"g22", p.g22},
+                                                   {"buoyancy", p.buoyancy},
+                                                   {"buoyancy_reference", p.buoyancy_reference},
+                                                   {"temperature_bottom", p.temperature_bottom},
+                                                   {"temperature_top", p.temperature_top},
+                                                   {"silos", static_cast<double>(p.silos)},
+                                                   {"silo_radius_min", p.silo_radius_min},
+                                                   {"silo_radius_max", p.silo_radius_max},
+                                                   {"silo_height_min", p.silo_height_min},
+                                                   {"silo_height_max", p.silo_height_max},
+                                                   {"vapour_background", p.vapour_background}};
+  for (const auto& [key, v] : values) out += fmt::format("    {:<20} = {}\n", key, v);
+  if (p.periodic_z) out += "  (a periodic box without top and bottom layers: a test configuration)\n";
+  return out;
+}
+
+WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin, int y_end) {
+  std::ifstream is(path, std::ios::binary);
+  const CheckpointHeader h = read_checkpoint_header(is, path);
+  const std::streamoff populations = is.tellg();  // CK2 headers are one parameter shorter
+  WaterModel w(h.grid, h.params, y_begin, y_end);
+  w.step_ = h.step;
+  // Read only the slab's rows: per (component, direction, z) one run of own x nx values
+  // (cell = (z ny + y) nx + x), as write_owned() writes them. Neither memory nor reading grows
+  // with the whole lattice.
+  const std::size_t N = h.grid.cells(), stride = w.g_.direction_stride();
+  const std::size_t run = static_cast<std::size_t>(y_end - y_begin) * static_cast<std::size_t>(h.grid.nx);
+  std::vector<float> values(run);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i)
+      for (int z = 0; z < h.grid.nz; ++z) {
+        const std::size_t first = checkpoint_value_index(c, i, N, h.grid.index(0, y_begin, z));
+        is.seekg(populations + static_cast<std::streamoff>(first * sizeof(float)));
+        is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
+        if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+        w.f_[c].write(static_cast<std::size_t>(i) * stride + w.g_.index(0, w.owned_begin(), z), run, values.data());
+      }
+  return w;
+}
+
+std::vector<float> WaterModel::pack_owned() const {
+  std::vector<float> out;
+  for (int y = owned_begin(); y < owned_end(); ++y) {
+    const std::vector<float> r = pack_row(Exchange::populations, y);
+    out.insert(out.end(), r.begin(), r.end());
+  }
+  return out;
+}
+
+void WaterModel::create_checkpoint(const std::filesystem::path& file, const Grid3& global,
+                                   const WaterModelParams& params, long step) {
+  {
+    std::ofstream os(file, std::ios::binary | std::ios::trunc);
+    if (!os) throw cannot_open_for_writing(file);
+    write_checkpoint_header(os, {global, step, params});
+    if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
+  }
+  std::error_code ec;
+  std::filesystem::resize_file(file, checkpoint_header_bytes + 2 * d3q19::q * global.cells() * sizeof(float), ec);
+  if (ec) throw IoError("cannot size the checkpoint: " + ec.message(), {.file = file.string()});
+}
+
+void WaterModel::write_owned(const std::filesystem::path& file) const {
+  // Each (component, direction, z) holds this slab's rows as one run of own x nx values in the
+  // whole lattice's order (cell = (z ny + y) nx + x): 2 q nz positioned writes.
+  std::fstream os(file, std::ios::binary | std::ios::in | std::ios::out);  // no truncation
+  if (!os) throw cannot_open_for_writing(file);
+  const std::size_t N = global_.cells(), stride = g_.direction_stride();
+  const std::size_t run = static_cast<std::size_t>(owned_end() - owned_begin()) * static_cast<std::size_t>(g_.nx);
+  std::vector<float> values(run);
+  for (int c = 0; c < 2; ++c)
+    for (int i = 0; i < d3q19::q; ++i)
+      for (int z = 0; z < g_.nz; ++z) {
+        f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, owned_begin(), z), run, values.data());
+        canonical_nans(values.data(), run);
+        const std::size_t first = checkpoint_value_index(c, i, N, global_.index(0, global_y(owned_begin()), z));
+        os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + first * sizeof(float)));
+        os.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
+      }
+  if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
+}
+
+}  // namespace nephos::lbm

@@ -1,0 +1,127 @@
+#include "nephos/render/job.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "nephos/core/atomic_file.hpp"
+#include "nephos/core/error.hpp"
+#include "nephos/core/parse.hpp"
+#include "nephos/weather/masks.hpp"
+
+namespace nephos::render {
+
+std::vector<weather::CloudType> SceneRequest::all_cloud_types() {
+  std::vector<weather::CloudType> all;
+  for (int t = 0; t < weather::cloud_type_count; ++t) all.push_back(static_cast<weather::CloudType>(t));
+  return all;
+}
+
+RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
+  RenderParams rp;
+  rp.set_bands(view.bands, "bands");
+  rp.set_steps(view.steps, "steps");
+  rp.set_rays_per_pixel(view.samples, "samples");
+  rp.stratified_samples = !view.sample_grid;
+  rp.sample_seed = seed;
+  return rp;
+}
+
+namespace {
+
+// The cloud model's parameters of a scene request: the configuration, then the request's
+// texture size and displacement.
+clouds::ModelConfig scene_config(const SceneRequest& request) {
+  clouds::ModelConfig c = clouds::read_model_config(request.config);
+  c.cloud.set_texture_size(request.texture != 0 ? request.texture : c.cloud.texture_size, "texture");
+  if (request.displace_hours) c.cloud.set_displace_hours(*request.displace_hours, "displace_hours");
+  return c;
+}
+
+// A view's sensor and renderer parameters, checked: image size, bands, steps, rays, sensor and
+// memory (the renderer's plus extra_bytes_per_pixel).
+std::pair<Sensor, RenderParams> checked_view(const ViewRequest& view, std::uint64_t seed,
+                                             double extra_bytes_per_pixel) {
+  require_image_size(view.width, view.height, "size");
+  RenderParams rp = render_params(view, seed);
+  Sensor sensor = parse_sensor(view.sensor, view.width, view.height);
+  require_memory(render_memory_bytes(view.width, view.height, rp) +
+                     extra_bytes_per_pixel * view.width * static_cast<double>(view.height),
+                 "size", fmt::format("a {}x{} image with {} rays per pixel", view.width, view.height, view.samples));
+  return {std::move(sensor), std::move(rp)};
+}
+
+}  // namespace
+
+RenderScene::RenderScene(weather::WeatherGrid weather, const SceneRequest& request)
+    : weather_(std::move(weather)), types_(request.types), seed_(request.seed) {
+  if (types_.empty()) throw ValueError("no cloud type: at least one", {.key = "types"});
+  const clouds::ModelConfig c = scene_config(request);
+  params_ = c.cloud;
+  const weather::WeatherMasks masks = weather::compute_masks(weather_, c.masks);
+  scene_ = clouds::build_scene(weather_, masks, params_, types_, seed_);
+}
+
+void RenderScene::advance(double hours, const std::string& key) {
+  require_range(hours, -clouds::CloudModelParams::max_displace_hours, clouds::CloudModelParams::max_displace_hours, key,
+                "the advance [h]");
+  clouds::advance_scene(scene_, hours, params_);
+}
+
+RenderedView RenderScene::render(const ViewRequest& view, double extra_bytes_per_pixel) const {
+  auto [sensor, rp] = checked_view(view, seed_, extra_bytes_per_pixel);
+  const UtcTime time = view.time.value_or(weather_.metadata().valid_time);
+  const earth::SunPosition sun = earth::sun_position(time);
+  spdlog::info("sensor: {}", sensor.description);
+  spdlog::info("time {}: subsolar point {:.2f}, {:.2f}", time.iso(), sun.subsolar_lat_deg, sun.subsolar_lon_deg);
+  RenderImage image = render::render(scene_, sensor, sun, rp, &weather_);
+  return {std::move(image), std::move(sensor), time, sun};
+}
+
+FrameMetadata RenderScene::metadata(const ViewRequest& view, const RenderedView& rendered) const {
+  FrameMetadata meta{weather_.metadata().source,
+                     rendered.sensor.description,
+                     rendered.time.iso(),
+                     rendered.sun.subsolar_lat_deg,
+                     rendered.sun.subsolar_lon_deg,
+                     seed_,
+                     view.steps,
+                     params_.texture_size,
+                     view.samples,
+                     view.samples == 1  ? "centre"
+                     : view.sample_grid ? "grid"
+                                        : "stratified",
+                     {}};
+  for (auto t : types_) meta.types.emplace_back(weather::name(t));
+  return meta;
+}
+
+void run_render(
+    const RenderRequest& request,
+    const std::function<void(int, const std::filesystem::path&, const RenderScene&, const RenderedView&)>& on_frame) {
+  // Everything that needs no weather is checked first, so that bad input fails fast and
+  // writes nothing: the view (with the previews' byte per pixel and channel), the frame
+  // count and advance, the scene's parameters.
+  checked_view(request.view, request.scene.seed, 3.0);
+  if (request.frames < 1) throw ValueError("must be >= 1", {.key = "frames"});
+  require_range(request.advance_hours, -clouds::CloudModelParams::max_displace_hours,
+                clouds::CloudModelParams::max_displace_hours, "advance_hours", "the advance per frame [h]");
+  scene_config(request.scene);
+  if (request.scene.types.empty()) throw ValueError("no cloud type: at least one", {.key = "types"});
+
+  RenderScene scene(weather::load_weather(request.weather, request.scene.seed), request.scene);
+  if (request.advance_hours != 0) scene.advance(request.advance_hours, "advance_hours");
+  ensure_directory(request.out);
+  for (int frame = 0; frame < request.frames; ++frame) {
+    if (frame > 0) scene.advance(request.advance_hours, "advance_hours");
+    const RenderedView view = scene.render(request.view, 3.0);
+    const std::filesystem::path dir =
+        request.frames == 1 ? request.out : request.out / fmt::format("frame_{:03d}", frame);
+    ensure_directory(dir);
+    write_render_netcdf(dir / "render.nc", view.image, scene.metadata(request.view, view));
+    write_render_exr(dir / "render.exr", view.image);
+    write_render_previews(dir, view.image);
+    if (on_frame) on_frame(frame, dir, scene, view);
+  }
+}
+
+}  // namespace nephos::render
