@@ -24,14 +24,16 @@
 #include "nephos/core/parse.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/earth/sun.hpp"
+#include "nephos/lbm/job.hpp"
 #include "nephos/lbm/lighting.hpp"
 #include "nephos/lbm/percolation.hpp"
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/optics/optics.hpp"
-#include "nephos/realtime/flight.hpp"
+#include "nephos/realtime/flight_job.hpp"
 #include "nephos/realtime/gl_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
+#include "nephos/render/job.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
 #include "nephos/weather/masks.hpp"
@@ -51,33 +53,17 @@ py::array_t<T> to_array(const std::vector<T>& values, std::vector<py::ssize_t> s
   return a;
 }
 
-// The CLI's configuration file sections for the cloud model and the masks; unknown keys are
-// errors, as on the command line.
-struct ModelConfig {
-  clouds::CloudModelParams cloud;
-  weather::MaskParams masks;
-};
-ModelConfig read_config(const std::optional<std::string>& path) {
-  ModelConfig c;
-  if (!path) return c;
-  const ParamDict dict = ParamDict::from_file(*path);
-  c.cloud = clouds::CloudModelParams::from(dict);
-  c.masks = weather::MaskParams::from(dict);
-  dict.check_unused();
-  return c;
-}
-
 class Weather {
  public:
   explicit Weather(weather::WeatherGrid w) : w_(std::move(w)) {}
   const weather::WeatherGrid& grid() const { return w_; }
 
   py::dict masks(const std::optional<std::string>& config) const {
-    const ModelConfig c = read_config(config);
+    const weather::MaskParams params = clouds::read_model_config(config.value_or("")).masks;
     weather::WeatherMasks m;
     {
       py::gil_scoped_release release;
-      m = weather::compute_masks(w_, c.masks);
+      m = weather::compute_masks(w_, params);
     }
     py::dict out;
     const auto shape = std::vector<py::ssize_t>{w_.grid().nlat, w_.grid().nlon};
@@ -102,59 +88,67 @@ class Weather {
   weather::WeatherGrid w_;
 };
 
+// nephos.Scene: a render::RenderScene from keyword arguments (the fields of SceneRequest and
+// ViewRequest, so that errors name the keyword).
 class Scene {
  public:
   Scene(const Weather& w, const std::optional<std::vector<std::string>>& types, int texture, std::uint64_t seed,
         const std::optional<std::string>& config, std::optional<double> displace_hours)
-      : weather_(w.grid()), seed_(seed) {
-    const ModelConfig c = read_config(config);
-    params_ = c.cloud;
-    params_.set_texture_size(texture != 0 ? texture : params_.texture_size, "texture");
-    if (displace_hours) params_.set_displace_hours(*displace_hours, "displace_hours");
-    std::vector<weather::CloudType> kinds;
-    if (types) {
-      for (const auto& t : *types) kinds.push_back(weather::cloud_type_from_name(t));
-    } else {
-      for (int t = 0; t < weather::cloud_type_count; ++t) kinds.push_back(static_cast<weather::CloudType>(t));
-    }
-    for (auto t : kinds) type_names_.emplace_back(weather::name(t));
-    py::gil_scoped_release release;
-    const weather::WeatherMasks masks = weather::compute_masks(weather_, c.masks);
-    scene_ = clouds::build_scene(weather_, masks, params_, kinds, seed);
-  }
+      : scene_(make(w, types, texture, seed, config, displace_hours)) {}
 
   void advance(double hours) {
-    if (!(std::abs(hours) <= clouds::CloudModelParams::max_displace_hours))
-      throw ValueError(fmt::format("the advance must be within +-{} h", clouds::CloudModelParams::max_displace_hours),
-                       {.key = "hours"});
     py::gil_scoped_release release;
-    clouds::advance_scene(scene_, hours, params_);
+    scene_->advance(hours, "hours");
   }
 
-  py::dict render(const std::string& sensor_spec, std::pair<int, int> size, const std::vector<std::string>& bands,
-                  int steps, const std::optional<std::string>& time, int samples, bool sample_grid) const {
-    const auto [width, height] = size;
-    if (width < 1 || height < 1 || width > 20000 || height > 20000)
-      throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height),
-                       {.key = "size"});
-    render::RenderParams rp;
-    rp.set_steps(steps, "steps");
-    rp.set_bands(bands, "bands");
-    rp.set_rays_per_pixel(samples, "samples");
-    rp.stratified_samples = !sample_grid;
-    rp.sample_seed = seed_;
-    const render::Sensor sensor = render::parse_sensor(sensor_spec, width, height);
-    // The image, and its copy into numpy arrays.
-    require_memory(2 * render::render_memory_bytes(width, height, rp), "size",
-                   fmt::format("a {}x{} image with {} rays per pixel", width, height, samples));
-    const UtcTime t = time ? UtcTime::parse(*time) : weather_.metadata().valid_time;
-    const earth::SunPosition sun = earth::sun_position(t);
-    render::RenderImage img;
+  py::dict render(const std::string& sensor, std::pair<int, int> size, const std::vector<std::string>& bands, int steps,
+                  const std::optional<std::string>& time, int samples, bool sample_grid) const {
+    render::ViewRequest view;
+    view.sensor = sensor;
+    std::tie(view.width, view.height) = size;
+    view.bands = bands;
+    view.steps = steps;
+    view.samples = samples;
+    view.sample_grid = sample_grid;
+    if (time) view.time = parse_time(*time, "time");
+    require_image_size(view.width, view.height, "size");
+    // The arrays handed to Python hold a copy of the image: as much again as the renderer's.
+    const double copy = render::render_memory_bytes(view.width, view.height, render::render_params(view, 0)) /
+                        (static_cast<double>(view.width) * view.height);
+    render::RenderedView r;
     {
       py::gil_scoped_release release;
-      img = render::render(scene_, sensor, sun, rp, &weather_);
+      r = scene_->render(view, copy);
     }
-    const std::vector<py::ssize_t> shape{height, width};
+    return image_dict(r);
+  }
+
+  std::vector<std::string> types() const {
+    std::vector<std::string> names;
+    for (auto t : scene_->types()) names.emplace_back(weather::name(t));
+    return names;
+  }
+
+ private:
+  static std::unique_ptr<render::RenderScene> make(const Weather& w,
+                                                   const std::optional<std::vector<std::string>>& types, int texture,
+                                                   std::uint64_t seed, const std::optional<std::string>& config,
+                                                   std::optional<double> displace_hours) {
+    render::SceneRequest r;
+    if (types) {
+      r.types.clear();
+      for (const auto& t : *types) r.types.push_back(weather::cloud_type_from_name(t));
+    }
+    r.texture = texture;
+    r.displace_hours = displace_hours;
+    r.config = config.value_or("");
+    r.seed = seed;
+    py::gil_scoped_release release;
+    return std::make_unique<render::RenderScene>(w.grid(), r);
+  }
+  static py::dict image_dict(const render::RenderedView& r) {
+    const render::RenderImage& img = r.image;
+    const std::vector<py::ssize_t> shape{img.height, img.width};
     py::dict out;
     for (std::size_t b = 0; b < img.bands.size(); ++b) {
       out[py::str("radiance_" + img.bands[b])] = to_array(img.radiance[b], shape);
@@ -168,21 +162,13 @@ class Scene {
     out["latitude"] = to_array(img.latitude_deg, shape);
     out["longitude"] = to_array(img.longitude_deg, shape);
     py::dict seconds;
-    for (const auto& [name, s] : img.seconds_per_type) seconds[py::str(name)] = s;
+    for (const auto& [name, secs] : img.seconds_per_type) seconds[py::str(name)] = secs;
     out["seconds_per_type"] = seconds;
-    out["sensor"] = sensor.description;
-    out["time"] = t.iso();
+    out["sensor"] = r.sensor.description;
+    out["time"] = r.time.iso();
     return out;
   }
-
-  const std::vector<std::string>& types() const { return type_names_; }
-
- private:
-  weather::WeatherGrid weather_;  // the scene's displacement and the renderer's surface temperatures
-  clouds::CloudModelParams params_;
-  clouds::CloudScene scene_;
-  std::uint64_t seed_;
-  std::vector<std::string> type_names_;
+  std::unique_ptr<render::RenderScene> scene_;
 };
 
 // ---- Lattice-Boltzmann clouds: fields as (nz, ny, nx) float32 arrays, [z][y][x] as in lbm.nc.
@@ -214,15 +200,6 @@ std::vector<float> values_of(const py::array_t<float, py::array::c_style | py::a
 py::array_t<float> field_array(const std::vector<float>& v, const lbm::Grid3& g) {
   return to_array(v, {g.nz, g.ny, g.nx});
 }
-std::pair<double, double> checked_sun(std::pair<double, double> sun) {
-  if (!(std::isfinite(sun.first) && sun.second > 0 && sun.second <= 90))
-    throw ValueError(fmt::format("expected (azimuth, elevation) with a finite azimuth and an elevation in (0, 90] deg, "
-                                 "got ({:g}, {:g})",
-                                 sun.first, sun.second),
-                     {.key = "sun"});
-  return sun;
-}
-
 class WaterModel {
  public:
   WaterModel(std::tuple<int, int, int> grid, std::uint64_t seed, std::optional<int> silos,
@@ -254,14 +231,8 @@ class WaterModel {
                               const std::optional<std::string>& config, const std::optional<std::string>& storage) {
     const auto [nx, ny, nz] = grid;
     const lbm::Grid3 g = lbm::Grid3::parse(fmt::format("{}x{}x{}", nx, ny, nz));  // its checks and messages
-    lbm::WaterModelParams p;
-    if (config) {
-      const ParamDict dict = ParamDict::from_file(*config);
-      p = lbm::WaterModelParams::from(dict);
-      dict.check_unused();
-    }
-    if (silos) p.set_silos(*silos, "silos");
-    if (storage) p.storage = lbm::parse_storage(*storage);
+    const lbm::WaterModelParams p = lbm::water_params(
+        config.value_or(""), silos, storage ? std::optional(lbm::parse_storage(*storage)) : std::nullopt);
     require_memory(static_cast<double>(g.cells()) * p.bytes_per_cell(), "grid",
                    fmt::format("the {} water model", g.describe()));
     lbm::WaterModel m(g, p);
@@ -274,8 +245,8 @@ class WaterModel {
   lbm::WaterModel model_;
 };
 
-// A straight, level flight through sprite clouds, drawn headless (EGL) frame by frame: what
-// `nephos fly` writes as PNGs, as numpy arrays.
+// nephos.Flight: a realtime::FlightSession from keyword arguments (the fields of
+// FlightRequest), drawn frame by frame: what `nephos fly` writes as PNGs, as numpy arrays.
 class Flight {
  public:
   Flight(const std::optional<std::string>& code, const std::optional<std::string>& metar,
@@ -283,57 +254,33 @@ class Flight {
          std::pair<int, int> size, double speed_kt, double altitude_ft, const std::string& time, std::uint64_t seed,
          bool impostors, double impostor_radius_km, double lod_km, bool sort_opt, const std::string& background,
          const std::string& gl) {
-    const auto [width, height] = size;
-    if (width < 1 || height < 1 || width > 20000 || height > 20000)
-      throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height),
-                       {.key = "size"});
-    const auto [lat, lon] = position;
-    require_range(lat, -90, 90, "position", "the latitude [deg]");
-    require_range(lon, -realtime::max_abs_longitude_deg, realtime::max_abs_longitude_deg, "position",
-                  "the longitude [deg]");
-    require_range(altitude_ft, realtime::min_altitude_ft, realtime::max_altitude_ft, "altitude_ft",
-                  "the altitude [ft]");
-    require_range(speed_kt, 0, realtime::max_speed_kt, "speed_kt", "the ground speed [kt]");
-    require_range(lod_km, 0, realtime::max_lod_km, "lod_km", "the level-of-detail distance [km] (0: off)");
-    require_range_above(impostor_radius_km, 0, realtime::max_impostor_radius_km, "impostor_radius_km",
-                        "the impostor ring radius [km]");
-    if (background != "sky" && background != "transparent")
-      throw ValueError("expected \"sky\" or \"transparent\", got '" + background + "'", {.key = "background"});
-    transparent_ = background == "transparent";
-    const UtcTime t = UtcTime::parse(time);
-    if ((code.has_value() + metar.has_value() + foreca.has_value() + (weather != nullptr)) > 1)
-      throw ValueError("give one of code, metar, foreca, weather", {.key = "code"});
-    realtime::CloudRecipe recipe;
-    if (metar)
-      recipe = realtime::recipe_from_metar(*metar);
-    else if (foreca)
-      recipe = realtime::recipe_from_code(realtime::code_from_foreca_json(*foreca, t));
-    else if (weather)
-      recipe = realtime::recipe_from_weather(weather::compute_masks(weather->grid(), weather::MaskParams{}),
-                                             weather->grid(), lat, lon);
-    else
-      recipe = realtime::recipe_from_code(realtime::parse_weather_code(code.value_or("d300")));
-    realtime::FlightParams fp;
-    fp.altitude_m = altitude_ft * realtime::metres_per_foot;
-    fp.speed_m_s = speed_kt * realtime::metres_per_second_per_knot;
-    fp.sort_optimised = sort_opt;
-    fp.impostors = impostors;
-    flight_.emplace(recipe, seed, fp);
-    sun_ = realtime::sun_light(t, lat, lon);
-    renderer_ = std::make_unique<realtime::SpriteRenderer>(width, height, seed, realtime::gl_api_from_name(gl));
-    renderer_->set_impostor_radius(impostor_radius_km * 1000);
-    renderer_->set_single_sprite_distance(lod_km * 1000);
-    if (transparent_) renderer_->set_background(realtime::SpriteRenderer::Background::transparent);
-    renderer_->release_current();  // any Python thread may draw the first frame
+    realtime::FlightRequest r;
+    r.clouds.code = code.value_or("");
+    r.clouds.metar = metar.value_or("");
+    r.clouds.foreca = foreca.value_or("");
+    r.clouds.weather = weather ? &weather->grid() : nullptr;
+    std::tie(r.lat_deg, r.lon_deg) = position;
+    std::tie(r.width, r.height) = size;
+    r.speed_kt = speed_kt;
+    r.altitude_ft = altitude_ft;
+    r.time = parse_time(time, "time");
+    r.seed = seed;
+    r.impostors = impostors;
+    r.impostor_radius_km = impostor_radius_km;
+    r.lod_km = lod_km;
+    r.sort_opt = sort_opt;
+    r.transparent = realtime::transparent_background(background);
+    r.gl = realtime::gl_api_from_name(gl);
+    session_ = std::make_unique<realtime::FlightSession>(r);
+    session_->renderer().release_current();  // any Python thread may draw the first frame
   }
 
   void change_weather(const std::string& code, double at_s) {
-    require_range(at_s, 0, 1e7, "at_s", "the time of the change [s of flight]");
-    flight_->change_weather_at(realtime::recipe_from_code(realtime::parse_weather_code(code)), at_s);
+    session_->change_weather(realtime::parse_weather_code(code), at_s);
   }
 
   py::array_t<std::uint8_t> frame() {
-    std::vector<std::uint8_t> rgba;
+    std::vector<std::uint8_t> pixels;
     {
       py::gil_scoped_release release;
       // The context is current only while this thread draws (also when drawing throws):
@@ -347,16 +294,12 @@ class Flight {
           } catch (const Error&) {  // nothing to do: the next make_current() reports EGL's state
           }
         }
-      } current(*renderer_);
-      last_ = flight_->next_frame(*renderer_, sun_);
-      rgba = renderer_->read_pixels();
+      } current(session_->renderer());
+      last_ = session_->next_frame();
+      pixels = session_->pixels();
     }
-    const int w = renderer_->width(), h = renderer_->height();
-    if (transparent_) return to_array(realtime::straight_alpha(std::move(rgba)), {h, w, 4});
-    std::vector<std::uint8_t> rgb(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * 3);
-    for (std::size_t p = 0, n = rgb.size() / 3; p < n; ++p)
-      for (int c = 0; c < 3; ++c) rgb[3 * p + static_cast<std::size_t>(c)] = rgba[4 * p + static_cast<std::size_t>(c)];
-    return to_array(rgb, {h, w, 3});
+    const auto& r = session_->renderer();
+    return to_array(pixels, {r.height(), r.width(), session_->channels()});
   }
 
   py::dict stats() const {
@@ -367,17 +310,53 @@ class Flight {
     d["impostor_sprites"] = last_.impostor_sprites;
     return d;
   }
-  int frames_flown() const { return flight_->frames_flown(); }
-  std::size_t clouds() const { return flight_->field().clouds().size(); }
-  std::string gl_renderer() const { return renderer_->gl_renderer(); }
+  int frames_flown() const { return session_->flight().frames_flown(); }
+  std::size_t clouds() const { return session_->flight().field().clouds().size(); }
+  std::string gl_renderer() const { return session_->renderer().gl_renderer(); }
 
  private:
-  std::optional<realtime::StraightFlight> flight_;
-  std::unique_ptr<realtime::SpriteRenderer> renderer_;
-  realtime::SunLight sun_{};
+  std::unique_ptr<realtime::FlightSession> session_;
   realtime::FrameStats last_{};
-  bool transparent_ = false;
 };
+
+// nephos.run_lbm: every stage of `nephos lbm` in this process, from keyword arguments (the
+// fields of LbmRequest), writing its outputs; the fields as arrays.
+py::dict run_lbm(std::tuple<int, int, int> grid, std::optional<int> silos, long iterations, long checkpoint_every,
+                 int percolation, std::pair<double, double> sun, std::pair<int, int> size,
+                 const std::optional<std::string>& resume, const std::optional<std::string>& config,
+                 const std::optional<std::string>& storage, const std::string& out, std::uint64_t seed) {
+  lbm::LbmRequest r;
+  const auto [nx, ny, nz] = grid;
+  r.grid = lbm::Grid3::parse(fmt::format("{}x{}x{}", nx, ny, nz));
+  r.silos = silos;
+  r.iterations = iterations;
+  r.checkpoint_every = checkpoint_every;
+  r.percolation = percolation;
+  std::tie(r.sun_azimuth_deg, r.sun_elevation_deg) = sun;
+  std::tie(r.width, r.height) = size;
+  r.resume = resume.value_or("");
+  r.config = config.value_or("");
+  if (storage) r.storage = lbm::parse_storage(*storage);
+  r.out = out;
+  r.seed = seed;
+  lbm::LbmResult res;
+  {
+    py::gil_scoped_release release;
+    lbm::SingleProcess one;
+    res = lbm::run_lbm(r, one);
+  }
+  py::dict d;
+  d["vapour"] = field_array(res.vapour, res.grid);
+  d["temperature"] = field_array(res.temperature, res.grid);
+  if (!res.percolated.empty()) d["percolated_density"] = field_array(res.percolated, res.grid);
+  d["cloud"] = field_array(res.cloud, res.grid);
+  d["light"] = field_array(res.light, res.grid);
+  d["steps"] = res.steps_done;
+  d["percolation_steps"] = res.percolation_steps;
+  d["lighting_steps"] = res.lighting_steps;
+  d["lighting_residual"] = res.lighting_residual;
+  return d;
+}
 
 py::tuple percolate(const py::array_t<float, py::array::c_style | py::array::forcecast>& vapour, int refinement,
                     std::uint64_t seed, double rho10) {
@@ -400,7 +379,7 @@ py::tuple light(const py::array_t<float, py::array::c_style | py::array::forceca
                 std::pair<double, double> sun) {
   const lbm::Grid3 g = grid_of(density, "density");
   lbm::LightingParams lp;
-  std::tie(lp.sun_azimuth_deg, lp.sun_elevation_deg) = checked_sun(sun);
+  lp.set_sun(sun.first, sun.second, "sun");
   std::vector<float> d = values_of(density, "density"), field;
   int steps = 0;
   double residual = 0;
@@ -420,11 +399,12 @@ py::array_t<std::uint8_t> raycast(const py::array_t<float, py::array::c_style | 
   const lbm::Grid3 g = grid_of(density, "density");
   if (!(grid_of(light, "light") == g)) throw ValueError("light and density differ in shape", {.key = "light"});
   const auto [width, height] = size;
-  if (width < 1 || height < 1 || width > 20000 || height > 20000)
-    throw ValueError(fmt::format("expected (width, height) in 1..20000, got ({}, {})", width, height), {.key = "size"});
+  require_image_size(width, height, "size");
   lbm::RaycastParams rp;
   rp.width = width, rp.height = height;
-  std::tie(rp.sun_azimuth_deg, rp.sun_elevation_deg) = checked_sun(sun);
+  lbm::LightingParams sun_check;
+  sun_check.set_sun(sun.first, sun.second, "sun");
+  std::tie(rp.sun_azimuth_deg, rp.sun_elevation_deg) = sun;
   const std::vector<float> d = values_of(density, "density"), l = values_of(light, "light");
   std::vector<std::uint8_t> rgb;
   {
@@ -594,6 +574,16 @@ PYBIND11_MODULE(nephos, m) {
       .def("vapour", &WaterModel::vapour, "Vapour density, (nz, ny, nx) float32 [lattice units].")
       .def("temperature", &WaterModel::temperature, "Temperature, (nz, ny, nx) float32 [lattice units].")
       .def("save", &WaterModel::save, py::arg("path"), "A checkpoint, as --checkpoint-every writes it.");
+  m.def("run_lbm", &run_lbm, py::kw_only(), py::arg("grid") = std::make_tuple(128, 128, 128),
+        py::arg("silos") = py::none(), py::arg("iterations") = 20, py::arg("checkpoint_every") = 0,
+        py::arg("percolation") = 5, py::arg("sun") = std::make_pair(135.0, 45.0),
+        py::arg("size") = std::make_pair(640, 480), py::arg("resume") = py::none(), py::arg("config") = py::none(),
+        py::arg("storage") = py::none(), py::arg("out") = "out/lbm", py::arg("seed") = 1,
+        "Every stage of `nephos lbm` in this process (water model, percolation with refinement `percolation` (0: "
+        "skip), lighting, ray casting), writing lbm.nc, clouds.vdb and render.png into `out`: a dict of the fields "
+        "as (nz, ny, nx) float32 arrays (vapour, temperature, percolated_density, cloud, light) and steps, "
+        "percolation_steps, lighting_steps, lighting_residual. grid: (nx, ny, nz); sun: (azimuth, elevation) [deg]; "
+        "size: (width, height) of render.png.");
   m.def("percolate", &percolate, py::arg("vapour"), py::arg("refinement") = 5, py::arg("seed") = 1,
         py::arg("rho10") = 1.0,
         "Nagel-Raschke percolation of a vapour field on the grid refined K times: (cloud fraction (nz, ny, nx), "

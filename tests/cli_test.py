@@ -953,6 +953,37 @@ class Usage(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertIn("0..1024", r.stderr)
 
+    def test_global_options_before_or_after_the_command(self):
+        # --seed, --threads, -q and -v mean the same after the subcommand (what a user types
+        # first: `nephos lbm --seed 7`): the same outputs, byte for byte; errors in them still
+        # name the option.
+        import filecmp
+        with tempfile.TemporaryDirectory() as d:
+            before, after = Path(d) / "before", Path(d) / "after"
+            args = ["--grid", "16x16x12", "--iterations", "4", "--percolation", "2", "--size", "32x24"]
+            r1 = run("--seed", "7", "--threads", "1", "-q", "lbm", *args, "--out", before)
+            r2 = run("lbm", *args, "--seed", "7", "--threads", "1", "-q", "--out", after)
+            self.assertEqual(r1.returncode, 0, r1.stderr)
+            self.assertEqual(r2.returncode, 0, r2.stderr)
+            for f in ("lbm.nc", "render.png"):
+                self.assertTrue(filecmp.cmp(before / f, after / f, shallow=False), f)
+            r = run("render", "--size", "8x8", "--threads", "2000", "--out", Path(d) / "x")
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("key '--threads'", r.stderr)
+
+    def test_errors_name_the_option_that_sets_the_field(self):
+        # The library names a request's fields (size, speed_kt, ...); the command line shows the
+        # option that sets each, also where the two are spelled differently.
+        with tempfile.TemporaryDirectory() as d:
+            for args, option in ((("render", "--size", "0x8"), "--size"), (("render", "--samples", "5"), "--samples"),
+                                 (("render", "--advance-hours", "1e9"), "--advance-hours"),
+                                 (("fly", "--speed", "-5"), "--speed"), (("fly", "--altitude", "1e9"), "--altitude"),
+                                 (("fly", "--impostor-radius-km", "0"), "--impostor-radius-km"),
+                                 (("lbm", "--sun", "10,0"), "--sun"), (("lbm", "--iterations", "-1"), "--iterations")):
+                r = run(*args, "--out", Path(d) / "o")
+                self.assertEqual(r.returncode, 2, args)
+                self.assertIn(f"key '{option}'", r.stderr, args)
+
     def test_a_directory_where_a_file_belongs(self):
         # A directory given as an input file: one line naming it and what was expected, exit 2
         # (was: a TOML directory read as an empty configuration, a Foreca one an internal error).

@@ -64,7 +64,7 @@ std::pair<WeatherCode, double> parse_weather_change(const std::string& text) {
   if (at == std::string::npos)
     throw ValueError("expected CODE@SECONDS, e.g. d400@1.5, got '" + text + "'", {.key = "change"});
   const auto secs = parse_numbers(text.substr(at + 1), 1, "change", "CODE@SECONDS");
-  require_range(secs[0], 0, 1e7, "change", "the time of the change [s of flight]");
+  require_range(secs[0], 0, FlightSession::max_change_s, "change", "the time of the change [s of flight]");
   return {parse_weather_code(text.substr(0, at)), secs[0]};
 }
 
@@ -94,6 +94,7 @@ FlightSession::FlightSession(const FlightRequest& r)
 FrameStats FlightSession::next_frame() { return flight_.next_frame(*renderer_, sun_); }
 
 void FlightSession::change_weather(const WeatherCode& code, double at_s) {
+  require_range(at_s, 0, max_change_s, "at_s", "the time of the change [s of flight]");
   flight_.change_weather_at(recipe_from_code(code), at_s);
 }
 

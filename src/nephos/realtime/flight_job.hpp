@@ -64,8 +64,10 @@ class FlightSession {
   explicit FlightSession(const FlightRequest& request);
   /// Flies 1/30 s and draws the frame.
   FrameStats next_frame();
-  /// From `at_s` seconds of flight on, the weather is `code`.
+  /// From `at_s` seconds of flight on (0..max_change_s), the weather is `code`; ValueError
+  /// naming "at_s" otherwise.
   void change_weather(const WeatherCode& code, double at_s);
+  static constexpr double max_change_s = 1e7;
   /// The last frame, rows from the top: RGB8 over the sky, or straight-alpha RGBA8 when
   /// transparent.
   std::vector<std::uint8_t> pixels() const;
@@ -75,6 +77,7 @@ class FlightSession {
 
   const StraightFlight& flight() const { return flight_; }
   const SpriteRenderer& renderer() const { return *renderer_; }
+  SpriteRenderer& renderer() { return *renderer_; }
   const CloudRecipe& recipe() const { return recipe_; }
 
  private:
