@@ -18,7 +18,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/time.hpp"
 #include "nephos/io/png.hpp"
-#include "nephos/realtime/flight.hpp"
+#include "nephos/realtime/gl/flight.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace {

@@ -11,6 +11,7 @@
 
 #include "nephos/core/parallel.hpp"
 #include "nephos/particles/scene.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/weather/reader.hpp"
 
 namespace nephos::bench {

@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "nephos/core/error.hpp"
-#include "nephos/realtime/gl_program.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/gl_program.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 
 namespace {
 

@@ -30,8 +30,8 @@
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/optics/optics.hpp"
-#include "nephos/realtime/flight_job.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/flight_job.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
 #include "nephos/render/job.hpp"
 #include "nephos/render/renderer.hpp"
@@ -416,58 +416,10 @@ py::array_t<std::uint8_t> raycast(const py::array_t<float, py::array::c_style | 
 
 }  // namespace
 
-PYBIND11_MODULE(nephos, m) {
-  m.doc() = "nephos: real weather data to 3D clouds (weather, cloud masks, the global fractal cloud renderer)";
-  init_logging(Verbosity::quiet);  // a library in a Python process: no log lines unless asked
+namespace {
 
-  // nephos's typed exceptions as Python's: bad values and configuration as ValueError, files
-  // as OSError, a request larger than the machine's memory as MemoryError, the rest as
-  // RuntimeError; the message names the file, field or key.
-  py::register_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const IoError& e) {
-      PyErr_SetString(PyExc_OSError, e.what());
-    } catch (const ValueError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
-    } catch (const ConfigError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
-    } catch (const FormatError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
-    } catch (const ResourceError& e) {
-      PyErr_SetString(PyExc_MemoryError, e.what());
-    } catch (const Error& e) {
-      PyErr_SetString(PyExc_RuntimeError, e.what());
-    }
-  });
-
-  m.def(
-      "set_threads", [](int n) { set_threads(n); }, py::arg("threads"),
-      "Threads for the parallel loops (0: all cores). Results do not depend on it.");
-  m.def(
-      "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
-      "Log lines (and warnings) on stderr, as the command line prints them.");
-  m.def(
-      "bands",
-      [] {
-        py::list out;
-        for (const optics::Band& b : optics::bands()) {
-          py::dict d;
-          d["name"] = b.name;
-          d["description"] = b.description;
-          d["centre_um"] = b.centre_um;
-          d["lo_um"] = b.lo_um;
-          d["hi_um"] = b.hi_um;
-          d["solar_irradiance_w_m2_um"] = b.solar_irradiance;
-          d["thermal"] = b.thermal;
-          out.append(d);
-        }
-        return out;
-      },
-      "The bands Scene.render takes: a list of dicts with name, description (its GOES-16 ABI band), centre_um, "
-      "lo_um, hi_um [um], solar_irradiance_w_m2_um (top of the atmosphere at 1 AU [W m-2 um-1]) and thermal "
-      "(brightness temperature reported).");
-
+// nephos.Weather and nephos.Scene.
+void def_weather_and_scene(py::module_& m) {
   py::class_<Weather>(m, "Weather", "Pressure-level weather on a latitude-longitude grid (GRIB1/GRIB2).")
       .def(py::init([](const std::string& path, const std::optional<std::string>& valid_time) {
              py::gil_scoped_release release;
@@ -522,7 +474,10 @@ PYBIND11_MODULE(nephos, m) {
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "
            "file; time: ISO 8601 UTC (default: the weather's valid time).");
+}
 
+// nephos.Flight.
+void def_flight(py::module_& m) {
   py::class_<Flight>(m, "Flight",
                      "A straight, level flight eastwards through sprite clouds at 30 frames per second of flight, "
                      "drawn headless (EGL, OpenGL ES 3.0 or 3.3 core): the frames of `nephos fly` as numpy arrays.")
@@ -554,7 +509,10 @@ PYBIND11_MODULE(nephos, m) {
       .def_property_readonly("frames_flown", &Flight::frames_flown)
       .def_property_readonly("clouds", &Flight::clouds, "Sprite clouds in the field.")
       .def_property_readonly("gl_renderer", &Flight::gl_renderer);
+}
 
+// nephos.WaterModel and the lattice-Boltzmann stages.
+void def_lbm(py::module_& m) {
   py::class_<WaterModel>(m, "WaterModel",
                          "The two-component lattice-Boltzmann water model (vapour and temperature) of `nephos lbm`.")
       .def(py::init<std::tuple<int, int, int>, std::uint64_t, std::optional<int>, const std::optional<std::string>&,
@@ -595,4 +553,63 @@ PYBIND11_MODULE(nephos, m) {
         py::arg("sun") = std::make_pair(135.0, 45.0),
         "The lit density ray-cast from the default side view over a ground with its shadow: (height, width, 3) "
         "uint8 RGB.");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(nephos, m) {
+  m.doc() = "nephos: real weather data to 3D clouds (weather, cloud masks, the global fractal cloud renderer)";
+  init_logging(Verbosity::quiet);  // a library in a Python process: no log lines unless asked
+
+  // nephos's typed exceptions as Python's: bad values and configuration as ValueError, files
+  // as OSError, a request larger than the machine's memory as MemoryError, the rest as
+  // RuntimeError; the message names the file, field or key.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const IoError& e) {
+      PyErr_SetString(PyExc_OSError, e.what());
+    } catch (const ValueError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const ConfigError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const FormatError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const ResourceError& e) {
+      PyErr_SetString(PyExc_MemoryError, e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(PyExc_RuntimeError, e.what());
+    }
+  });
+
+  m.def(
+      "set_threads", [](int n) { set_threads(n); }, py::arg("threads"),
+      "Threads for the parallel loops (0: all cores). Results do not depend on it.");
+  m.def(
+      "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
+      "Log lines (and warnings) on stderr, as the command line prints them.");
+  m.def(
+      "bands",
+      [] {
+        py::list out;
+        for (const optics::Band& b : optics::bands()) {
+          py::dict d;
+          d["name"] = b.name;
+          d["description"] = b.description;
+          d["centre_um"] = b.centre_um;
+          d["lo_um"] = b.lo_um;
+          d["hi_um"] = b.hi_um;
+          d["solar_irradiance_w_m2_um"] = b.solar_irradiance;
+          d["thermal"] = b.thermal;
+          out.append(d);
+        }
+        return out;
+      },
+      "The bands Scene.render takes: a list of dicts with name, description (its GOES-16 ABI band), centre_um, "
+      "lo_um, hi_um [um], solar_irradiance_w_m2_um (top of the atmosphere at 1 AU [W m-2 um-1]) and thermal "
+      "(brightness temperature reported).");
+
+  def_weather_and_scene(m);
+  def_flight(m);
+  def_lbm(m);
 }

@@ -11,7 +11,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/parse.hpp"
 #include "nephos/core/progress.hpp"
-#include "nephos/realtime/flight_job.hpp"
+#include "nephos/realtime/gl/flight_job.hpp"
 #include "view.hpp"
 
 namespace nephos::app {

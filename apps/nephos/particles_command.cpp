@@ -21,8 +21,8 @@
 #include "nephos/particles/particles_io.hpp"
 #include "nephos/particles/scene.hpp"
 #include "nephos/particles/wrf_reader.hpp"
-#include "nephos/realtime/flight_job.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/flight_job.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/source.hpp"
 

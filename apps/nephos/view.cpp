@@ -16,7 +16,7 @@
 #include "nephos/io/png.hpp"
 #include "nephos/realtime/cloud_field.hpp"
 #include "nephos/realtime/frame_logic.hpp"
-#include "nephos/realtime/hud.hpp"
+#include "nephos/realtime/gl/hud.hpp"
 
 namespace nephos::app {
 namespace {

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "nephos/core/time.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace nephos::app {

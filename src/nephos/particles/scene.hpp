@@ -8,7 +8,7 @@
 #include <glm/glm.hpp>
 
 #include "nephos/particles/particle_system.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/frame_plan.hpp"
 
 namespace nephos::particles {
 

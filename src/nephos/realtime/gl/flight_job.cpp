@@ -1,4 +1,4 @@
-#include "nephos/realtime/flight_job.hpp"
+#include "nephos/realtime/gl/flight_job.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

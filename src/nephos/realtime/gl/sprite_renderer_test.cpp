@@ -1,4 +1,4 @@
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <string>
 
 #include "nephos/core/error.hpp"
-#include "nephos/realtime/gl_program.hpp"
+#include "nephos/realtime/gl/gl_program.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace nephos::realtime {
@@ -34,12 +34,12 @@ FrameDiff frame_diff(const std::vector<std::uint8_t>& a, const std::vector<std::
 
 // The frames of one view drawn with one of the renderer's comparison switches on ([1], drawn
 // first) and off ([0]); the switch is left off.
-std::array<std::vector<std::uint8_t>, 2> frames_both_ways(SpriteRenderer& renderer, void (SpriteRenderer::*set)(bool),
+std::array<std::vector<std::uint8_t>, 2> frames_both_ways(SpriteRenderer& renderer, bool RenderOptions::*option,
                                                           const CloudField& field, const Camera& cam,
                                                           const SunLight& sun, bool impostors) {
   std::array<std::vector<std::uint8_t>, 2> frames;
   for (const bool on : {true, false}) {
-    (renderer.*set)(on);
+    renderer.options().*option = on;
     renderer.draw(field, cam, sun, true, impostors);
     frames[on] = renderer.read_pixels();
   }
@@ -474,7 +474,7 @@ TEST(SpriteRendererGl, LayerPairInOnePassMatchesTwoPasses) {
     const CloudField field(r, 7, {0, 0, z});
     ASSERT_EQ(field.layers().size(), 2u);
     const Camera cam{{0, 0, z}, {1, 0, z < 4400 ? 0.05 : -0.05}, {0, 0, 1}, 60};
-    const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_merge_flat_layers, field, cam, sun, false);
+    const auto frames = frames_both_ways(renderer, &RenderOptions::merge_flat_layers, field, cam, sun, false);
     const FrameDiff d = frame_diff(frames[0], frames[1], 1);  // over: channels more than one level apart
     EXPECT_LE(d.max, 3) << "camera at " << z << " m";
     EXPECT_LT(d.over, frames[0].size() / 20) << "camera at " << z << " m";
@@ -499,7 +499,7 @@ TEST(SpriteRendererGl, FirstLayerOverTheSkyMatchesBlending) {
     const CloudField field(r, 7, {0, 0, z});
     ASSERT_EQ(field.layers().size(), 4u);
     const Camera cam{{0, 0, z}, {1, 0, z < 6000 ? 0.05 : -0.05}, {0, 0, 1}, 60};
-    const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_first_layer_over_sky, field, cam, sun, false);
+    const auto frames = frames_both_ways(renderer, &RenderOptions::first_layer_over_sky, field, cam, sun, false);
     const FrameDiff d = frame_diff(frames[0], frames[1], 1);
     EXPECT_LE(d.max, 2) << "camera at " << z << " m";
     EXPECT_GT(d.from_sky, 20) << "the layers are drawn (camera at " << z << " m)";
@@ -620,7 +620,7 @@ TEST(SpriteRendererGl, FlatLayerViewsFollowTheElevation) {
   constexpr int w = 160, h = 160;
   SpriteRenderer renderer(w, h, 7);
   auto frame = [&](const Camera& cam, SpriteRenderer::LayerViews views) {
-    renderer.set_layer_views(views);
+    renderer.options().layer_views = views;
     renderer.draw(field, cam, sun, true, false);
     return renderer.read_pixels();
   };
@@ -640,7 +640,7 @@ TEST(SpriteRendererGl, FlatLayerViewsFollowTheElevation) {
     const Camera ahead{{0, 0, 2438}, {1, 0, -0.05}, {0, 0, 1}, 60};
     std::vector<std::uint8_t> f[2];
     for (const auto views : {V::automatic, V::blended}) {
-      r2.set_layer_views(views);
+      r2.options().layer_views = views;
       r2.draw(pair, ahead, sun, true, false);
       f[views == V::blended] = r2.read_pixels();
     }
@@ -787,7 +787,7 @@ TEST(SpriteRendererGl, TrimmedSpritesMatchWholeQuads) {
   for (const double z : {2400.0, 4500.0})
     for (const bool impostors : {false, true}) {
       const Camera cam{{0, 0, z}, {1, 0.2, z > 3000 ? -0.3 : -0.05}, {0, 0, 1}, 60};
-      const auto frames = frames_both_ways(renderer, &SpriteRenderer::set_trim_sprites, field, cam, sun, impostors);
+      const auto frames = frames_both_ways(renderer, &RenderOptions::trim_sprites, field, cam, sun, impostors);
       const FrameDiff d = frame_diff(frames[0], frames[1], 0);  // over: channels that differ at all
       EXPECT_LE(d.max, max_levels) << "camera at " << z << " m, impostors " << impostors;
       EXPECT_LT(d.over, frames[0].size() / (llvmpipe ? 200 : 50)) << "camera at " << z << " m, impostors " << impostors;
@@ -844,10 +844,10 @@ TEST(SpriteRendererGl, TrimmedRingMatchesTheWholeQuads) {
     for (int k = 0; k < 4; ++k) {
       const double a = (10 + 90 * k) * M_PI / 180;
       const Camera cam{eye, {std::cos(a), std::sin(a), -0.05}, {0, 0, 1}, 60};
-      renderer.set_trim_ring(false);
+      renderer.options().trim_ring = false;
       EXPECT_DOUBLE_EQ(renderer.draw(field, cam, sun, true, true).ring_coverage, 1.0);
       const auto whole = renderer.read_pixels();
-      renderer.set_trim_ring(true);
+      renderer.options().trim_ring = true;
       const FrameStats trimmed = renderer.draw(field, cam, sun, true, true);
       EXPECT_EQ(trimmed.impostor_updates, 0);  // the same impostors, drawn both ways
       EXPECT_LT(trimmed.ring_coverage, 0.6) << "clustered " << clustered << ", heading " << 10 + 90 * k;

@@ -9,7 +9,7 @@
 
 #include "nephos/realtime/cloud_field.hpp"
 #include "nephos/realtime/frame_logic.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
 
 namespace nephos::realtime {

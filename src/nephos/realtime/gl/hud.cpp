@@ -1,4 +1,4 @@
-#include "nephos/realtime/hud.hpp"
+#include "nephos/realtime/gl/hud.hpp"
 
 #include <GLES3/gl3.h>
 

@@ -1,4 +1,4 @@
-#include "nephos/realtime/flight.hpp"
+#include "nephos/realtime/gl/flight.hpp"
 
 namespace nephos::realtime {
 

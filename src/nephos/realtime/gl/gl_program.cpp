@@ -1,4 +1,4 @@
-#include "nephos/realtime/gl_program.hpp"
+#include "nephos/realtime/gl/gl_program.hpp"
 
 #include <GLES3/gl3.h>
 

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "nephos/core/time.hpp"
-#include "nephos/realtime/flight.hpp"
-#include "nephos/realtime/gl_renderer.hpp"
+#include "nephos/realtime/gl/flight.hpp"
+#include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
 #include "nephos/weather/source.hpp"
 
