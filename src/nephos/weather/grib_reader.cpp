@@ -18,7 +18,7 @@
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
-#include "nephos/weather/reader.hpp"
+#include "nephos/weather/grib_reader.hpp"
 
 namespace nephos::weather {
 namespace {

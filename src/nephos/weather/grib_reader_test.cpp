@@ -6,7 +6,7 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/test_support.hpp"
-#include "nephos/weather/reader.hpp"
+#include "nephos/weather/grib_reader.hpp"
 #include "test_grib_writer.hpp"
 
 namespace nephos::weather {

@@ -2,7 +2,7 @@
 
 #include <fmt/format.h>
 
-#include "nephos/weather/reader.hpp"
+#include "nephos/weather/grib_reader.hpp"
 
 namespace nephos::weather {
 namespace {

@@ -6,10 +6,9 @@
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
+#include "nephos/weather/grib_reader.hpp"
 
 namespace nephos::weather {
-
-ReaderFactory grib_reader_factory();  // grib_reader.cpp
 
 namespace {
 // Built-in readers are in the map from its construction (thread-safe static initialisation).

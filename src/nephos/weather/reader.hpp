@@ -44,15 +44,4 @@ WeatherGrid open_weather(const std::filesystem::path& path, const UtcTime& valid
 /// one grid each, in time order.
 std::vector<WeatherGrid> open_weather_times(const std::filesystem::path& path);
 
-/// What a GRIB file holds beyond what WeatherGrid keeps (for `nephos info`).
-struct GribInventory {
-  int messages = 0;                          ///< GRIB messages in the file
-  int fields = 0;                            ///< fields in them (a GRIB2 message may hold several)
-  int unused_fields = 0;                     ///< fields nephos does not read
-  int editions_mask = 0;                     ///< bit 1: GRIB1, bit 2: GRIB2
-  std::vector<std::string> grid_types;       ///< distinct gridType values
-  std::vector<std::string> skipped_summary;  ///< "shortName/typeOfLevel xN" not used by nephos
-};
-GribInventory inventory_grib(const std::filesystem::path& path);
-
 }  // namespace nephos::weather
