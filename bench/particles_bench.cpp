@@ -31,7 +31,7 @@ int run_particles_bench(const ParticlesBenchOptions& o, std::uint64_t seed) {
   std::cout << fmt::format(
       "nephos bench particles: embedded GFS sample, region 30N-65N 50W-10E refined to {} x {} columns, {} threads, "
       "{}x{} frames on headless {} on {}, median of {} frames\n"
-      "(seed 003 publishes no timings to compare with)\n",
+      "(the particle-cloud paper publishes no timings to compare with)\n",
       pw.grid.cols, pw.grid.rows, thread_count(), o.width, o.height, renderer.gl_version(), renderer.gl_renderer(),
       o.frames);
   std::cout << describe_machine() << "\n";

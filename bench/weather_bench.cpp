@@ -1,5 +1,5 @@
 // Weather reading, sampling and masks on the embedded GFS sample (no speed target in the
-// issue; recorded in docs/PERFORMANCE.md so regressions are visible).
+// docs/PERFORMANCE.md, so that regressions show).
 #include <benchmark/benchmark.h>
 
 #include "nephos/weather/masks.hpp"

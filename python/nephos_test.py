@@ -260,7 +260,7 @@ class Lbm(unittest.TestCase):
             nephos.light(np.zeros((8, 8, 8), np.float32), sun=(135, -5))
         with self.assertRaisesRegex(ValueError, "3D"):
             nephos.percolate(np.zeros((8, 8), np.float32))
-        for rho10 in (0.0, -1.0, float("nan")):  # each once ran, every site dry
+        for rho10 in (0.0, -1.0, float("nan")):  # each would seed every site dry
             with self.assertRaisesRegex(ValueError, "'rho10': the condensation density"):
                 nephos.percolate(np.zeros((6, 6, 6), np.float32), rho10=rho10)
         with self.assertRaisesRegex(ValueError, "shape"):

@@ -986,7 +986,7 @@ class Usage(unittest.TestCase):
 
     def test_a_directory_where_a_file_belongs(self):
         # A directory given as an input file: one line naming it and what was expected, exit 2
-        # (was: a TOML directory read as an empty configuration, a Foreca one an internal error).
+        # (not an empty configuration or an internal error).
         with tempfile.TemporaryDirectory() as d:
             for args, expected in ((("render", "--config", d, "--size", "8x8"), "a TOML configuration file"),
                                    (("render", "--weather", d, "--size", "8x8"), "a weather file (GRIB)"),

@@ -1,5 +1,5 @@
 #pragma once
-// The cloud function of equation (1) (seed 000, section 2.1) for one cloud type inside its
+// The cloud function of equation (1) (the fractal-cloud paper, section 2.1) for one cloud type inside its
 // shell over the Earth:
 //
 //   CF(x) = sum_i m_i FF_i(x_i / LS_i) + b + w * mask(x_m)

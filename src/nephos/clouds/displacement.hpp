@@ -1,5 +1,5 @@
 #pragma once
-// Wind displacement maps (seed 000, section 2.2, Figures 4-5). A displacement map sends each
+// Wind displacement maps (the fractal-cloud paper, section 2.2, Figures 4-5). A displacement map sends each
 // point of the sphere at a chosen altitude to the point its air came from `hours` earlier in
 // the GFS wind at that altitude ("upwind point"). Sampling a fractal at the upwind point
 // stretches and shears its shapes along the flow, as satellite imagery shows.

@@ -12,7 +12,7 @@
 // sample (block bounds, cube maps): those are rounded up to whole 2 MiB pages, trading up to
 // 2 MiB of memory per table for TLB reach. Under a hypervisor's nested paging a TLB miss walks
 // two page tables, and the renderer's tables of 4 KiB pages (about 15 MiB) are more than a
-// Zen 3 core's 2048-entry second-level TLB covers.
+// core's second-level TLB covers (2048 entries on common x86-64 cores).
 #include <cstddef>
 #include <cstdlib>
 #include <new>

@@ -42,8 +42,8 @@ int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::
   int var = 0;
   check(nc_def_var(ncid_, name.c_str(), t, static_cast<int>(ids.size()), ids.data(), &var),
         "cannot define variable " + name);
-  // Shuffle + deflate level 1: float fields compress little past it (a 1000^2 render: 2.6 %
-  // smaller at level 4) but cost 1.3-1.6 times the time to write (measured).
+  // Shuffle + deflate level 1: float fields compress little past it, and higher levels cost
+  // far more time to write (docs/PERFORMANCE.md, design choices).
   if (!dims.empty() && (type == NcType::f32 || type == NcType::f64))
     check(nc_def_var_deflate(ncid_, var, 1, 1, 1), "cannot enable compression for " + name);
   return var;

@@ -24,9 +24,8 @@ void canonical_nans(float* v, std::size_t n) {
 }  // namespace
 
 namespace {
-// CK3: parameters stored field by field (CK1 wrote the struct's bytes, padding included, so
-// equal states could give different files); CK3 adds the population storage (CK2 is read as
-// FP32 storage). Populations are written as FP32 whatever the storage: FP16 values convert
+// Format CK3: parameters stored field by field, so that equal states give equal files, and the
+// population storage (a CK2 file, without it, is read as FP32 storage; CK1 is refused). Populations are written as FP32 whatever the storage: FP16 values convert
 // exactly, so a resumed run continues bit-identically either way.
 constexpr char magic[16] = "NEPHOS-LBM-CK3";
 constexpr char magic_ck2[16] = "NEPHOS-LBM-CK2";

@@ -24,7 +24,7 @@ inline constexpr double gradient_weight(int i) { return i == 0 ? 0.0 : i <= 6 ? 
 /// NaN or -0), a third of the arithmetic of a D3Q19 collision. Exact: the same value as the
 /// product form wherever that one has no signed-zero or NaN subtlety. Always inlined (as
 /// add_c): they only shrink to those few terms once inlined with a constant i, and GCC's
-/// inlining budget dropped add_c from the water model's collision once (3x slower, measured).
+/// inlining budget can otherwise drop add_c from the water model's collision.
 template <class T>
 [[gnu::always_inline]] inline T dot_c(int i, T x, T y, T z) {
   const auto iu = static_cast<std::size_t>(i);

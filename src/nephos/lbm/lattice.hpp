@@ -32,8 +32,8 @@ struct Grid3 {
   /// cell count rounded up to 32768 (64 KiB of FP16, 128 KiB of FP32: a whole number of L2 set
   /// spans, 64 KiB on a 512 KiB 8-way L2), plus 864. Without padding every direction of a
   /// power-of-two lattice starts at the same offset modulo 4 KiB, so the 19 pulled and the 19
-  /// written rows of a step fall into the same L1 and L2 sets and evict each other (measured
-  /// on an AMD Zen 3: a 19-direction copy ran at 7 GB/s instead of 47). With 864, direction i
+  /// written rows of a step fall into the same L1 and L2 sets and evict each other
+  /// (docs/PERFORMANCE.md, design choices). With 864, direction i
   /// starts i x 54 cache lines (FP32) or i x 27 (FP16) past a 64 KiB boundary: the directions'
   /// rows spread evenly over the L2 sets (and fall into distinct L1 sets), so the rows the water
   /// model's pass 1 pulls stay in L2 until its pass 2 pulls them again (FP16: 84 % L2 hits in a
@@ -120,8 +120,7 @@ inline void periodic_pieces(int nx, int first, int count, Piece&& piece) {
 /// multiple of 8 and nx >= 8. load8(k) gives the 8 row values k .. k + 7 as floats
 /// (0 <= k <= nx - 8). Why: the lanes copied piece by piece (a lone value, then the rest)
 /// were written by stores of other sizes and offsets than the vector loads that read them next,
-/// which stalls those loads (no store-to-load forwarding): measured ~18 % of the BGK kernel's
-/// samples on a Zen 3 in scalar copies and the loads after them.
+/// which stalls those loads (no store-to-load forwarding).
 template <class Load8>
 inline bool wrap_span_vectors([[maybe_unused]] int nx, [[maybe_unused]] int first, [[maybe_unused]] int count,
                               [[maybe_unused]] float* edge, [[maybe_unused]] Load8&& load8) {

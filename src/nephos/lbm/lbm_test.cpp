@@ -95,7 +95,7 @@ TEST(Lattice, PeriodicSpanIsTheWrappedRow) {
 
 TEST(Bgk, PoiseuilleChannel) {
   // Body force F along x between no-slip walls at z = 0 and z = H (halfway bounce-back):
-  // u(z) = F z (H - z) / (2 rho nu), nu = (xi - 1/2)/3. Issue target: L2 error < 5 %.
+  // u(z) = F z (H - z) / (2 rho nu), nu = (xi - 1/2)/3.
   const int h = 24;
   const double force = 1e-6, xi = 1.0;
   BgkSolver s({4, 4, h}, xi, ZBoundary::walls, {force, 0, 0});
@@ -128,7 +128,7 @@ WaterModelParams periodic_params() {
 }
 
 TEST(WaterModel, EachComponentsMassConserved) {
-  // Issue: conserved to 1e-6 relative over 100 steps without sources (periodic box, so the
+  // Conserved to 1e-6 relative over 100 steps without sources (periodic box, so the
   // fixed-temperature layers, the only sources, are off). Collision conserves each component's
   // mass (eq. 3) and streaming moves it; FP32 rounding stays far below 1e-6 in double sums.
   WaterModel w({16, 16, 16}, periodic_params());
@@ -498,8 +498,8 @@ TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
   }
   EXPECT_THROW(slabs[0].save(dir / "slab.bin"), ValueError);  // a slab alone is not a checkpoint
   if (GetParam() == Storage::fp32) {
-    // A CK2 file (the previous format: no storage parameter, so its populations start 8 bytes
-    // earlier) still loads, whole and as slabs.
+    // A CK2 file (no storage parameter, so its populations start 8 bytes before CK3's) still
+    // loads, whole and as slabs.
     std::string ck2 = test_support::file_bytes(dir / "whole.bin");
     ck2.replace(0, 14, "NEPHOS-LBM-CK2");
     ck2.erase(16 + 4 * 8 + 18 * 8, 8);
@@ -536,9 +536,9 @@ TEST(WaterModel, Fp16StorageHoldsAccuracy) {
     for (std::size_t k = 0; k < v32.size(); ++k) dv = std::max(dv, std::abs(double(v32[k]) - v16[k]));
     std::printf("vapour %.1f rho10, 100 steps: max |FP16 - FP32| %.2e; mass drift FP16 %.2e (temperature %.2e)\n", rho1,
                 dv, dm16, dt16);
-    // The issue's mass goal, 1e-6 relative over 100 steps, for both components: measured
-    // 1.6e-9 and 9.5e-8 for the vapour (3.8e-4 at 0.3 rho10 before the rest population took
-    // up the rounding), 1.6e-9 and 1e-9 for the temperature.
+    // The mass bound, 1e-6 relative over 100 steps, for both components: measured 1.6e-9 and
+    // 9.5e-8 for the vapour, 1.6e-9 and 1e-9 for the temperature. Fault caught: FP16 rounding
+    // not taken up by the rest population (3.8e-4 at 0.3 rho10).
     EXPECT_LT(std::abs(dm16), 1e-6);
     EXPECT_LT(std::abs(dt16), 1e-6);
     if (rho1 == 1.0) {

@@ -82,8 +82,7 @@ void Percolation::seed_sites(const std::vector<float>& vapour) {
   const double lo = p_.rho10 - p_.epsilon_below, hi = p_.rho10 + p_.epsilon_above;
   const int own_coarse = y_end_ - y_begin_, y0 = y_begin_ * k;
   // Locals, not members, in the loop: the sites' stores (64-bit words) could alias the 64-bit
-  // seed member, which the compiler would then reload per site (measured: the K = 5 benchmark
-  // took 1.47 s instead of 1.06-1.11 s).
+  // seed member, which the compiler would then reload per site.
   const std::uint64_t seed = seed_;
   const double initial_activation = p_.initial_activation;
   const Grid3 fine = fine_;

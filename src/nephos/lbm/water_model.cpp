@@ -170,9 +170,7 @@ WaterModel::DensityRows WaterModel::lattice_rows() {
 
 namespace {
 // Cells per line: what the kernels pull at a time per direction, 128 bytes of storage (two
-// cache lines): 32 cells in FP32, 64 in FP16. Measured on a Zen 3 VM, alternating builds:
-// 64-cell FP16 lines took 0.068-0.074 s per 128^3 step against 0.076-0.081 s for 32 cells,
-// while 64-cell FP32 lines were slower (0.064-0.071 against 0.059-0.064 s).
+// cache lines): 32 cells in FP32, 64 in FP16 (docs/PERFORMANCE.md, design choices).
 template <class T>
 constexpr int line = 128 / static_cast<int>(sizeof(T));
 constexpr int max_line = line<std::uint16_t>;
@@ -224,8 +222,7 @@ inline void store_line(float* dst, const float* src, int n) { store_streaming(ds
 // The sources of one line (cells x0 .. x0 + count - 1) of one component, direction by
 // direction (pulled()), with a software prefetch of the same lines one row ahead (consecutive
 // rows of a direction are consecutive in memory): 19 streams at a time are more than the
-// hardware prefetchers follow, and without it a pass that pulls waits on memory (measured
-// ~15 % of a step). `buf` (q line<T> floats) holds the spans that are not FP32 in place.
+// hardware prefetchers follow, and without it a pass that pulls waits on memory. `buf` (q line<T> floats) holds the spans that are not FP32 in place.
 // Direction 0 (rest) is FP32 in either storage, in place at rest_row (the row's first cell);
 // it does not move, so its line never wraps.
 template <class T>
@@ -456,7 +453,7 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
       in.pop = pulled_row + pulled_index<line<T>>(x0, 0, 0);
     } else {
       // The two-sweep step: pass 1 ran a whole sweep earlier, so pull the line again, as pass
-      // 1 does (with its prefetch: without it these pulls waited on memory, 1.5x slower).
+      // 1 does, with its prefetch (without it these pulls wait on memory).
       for (int c = 0; c < 2; ++c) {
         const float* src[d3q19::q];
         pull_line(rs[c], rest_row[c], x0, count, scratch.wrapped, src);
@@ -477,8 +474,8 @@ void WaterModel::collide_row(int y, int z, RowScratch& scratch, const DensityRow
     collide_line<line<T>>(in, count, k, post, static_cast<std::size_t>(line<T>));
     // The line's post-collision populations out at once, two whole cache lines per direction
     // (128 bytes): the streaming stores drain while the next line computes. Written a whole
-    // row at a time after the row (19 streams of 512-byte rows), they came in one burst the
-    // core waited on: 5 % slower in ten alternating pairs (docs/PERFORMANCE.md).
+    // row at a time after the row (19 streams of 512-byte rows), they would come in one burst
+    // the core waits on.
     for (int c = 0; c < 2; ++c) {
       float* const post_c = scratch.post[c];
       if constexpr (std::is_same_v<T, std::uint16_t>) {
@@ -548,9 +545,9 @@ void WaterModel::fused_step_impl() {
   // next state, so every row sees exactly the inputs of the two-pass order (bit-identical to
   // step_stage(), whatever the thread count). A step reads the state from memory once and
   // writes it once (608 B per cell for both components in FP32). Walls in z only. Blocks of
-  // 32 rows: each block recomputes two halo rows of densities, 6 % of pass 1 (16-row blocks,
-  // whose ring fits the L2 whole, measured 5 % slower per step on a Zen 3: their halo rows cost
-  // more than the L2 hits save). With more threads than 32-row blocks (128 rows on more than 4
+  // 32 rows: each block recomputes two halo rows of densities, 6 % of pass 1 (smaller blocks,
+  // whose ring fits the L2 whole, pay more in halo rows than the L2 hits save: docs/lbm.md).
+  // With more threads than 32-row blocks (128 rows on more than 4
   // cores) the blocks shrink, to no fewer than 4 rows, so that every thread has one; the
   // results do not depend on the blocking.
   const int nz = g_.nz, ny = g_.ny, nx = g_.nx;

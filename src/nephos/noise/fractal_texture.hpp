@@ -1,5 +1,5 @@
 #pragma once
-// Tileable 3D fractal textures (seed 000, section 2.1): Perlin gradient-noise fractals and an
+// Tileable 3D fractal textures (the fractal-cloud paper, section 2.1): Perlin gradient-noise fractals and an
 // inverted Worley (cellular) fractal, baked once per seed into an N^3 grid of 8-bit values in
 // [0, 1] and sampled with periodic trilinear interpolation. 8-bit storage quarters the memory
 // of float (three 256^3 textures: 48 MiB of voxels instead of 192) at a quantisation error of at most
@@ -35,7 +35,7 @@ struct FractalSpec {
 /// voxels (an apron). Whatever the lookup point, the eight voxels of its trilinear footprint lie
 /// in one brick, so a lookup reads exactly one cache line, against 1.95 on average for disjoint
 /// 4^3 bricks and 4 rows of a linear layout: at kilometre pixel spacing every lookup misses the
-/// caches, and a GEO frame was 7-9 % faster (docs/PERFORMANCE.md). The price is memory:
+/// caches (docs/PERFORMANCE.md, design choices). The price is memory:
 /// ceil(N/3)^3 bricks, about (4/3)^3 = 2.37 times N^3 bytes (39 MiB at 256^3, 4.9 MiB at 128^3).
 class Texture3D {
  public:
@@ -103,7 +103,7 @@ class Texture3D {
   Bounds block_bounds(std::uint32_t block) const { return bounds_from(block_word(block)); }
   /// The packed bounds of block `block`: min in the low byte, max in the high byte. Batched
   /// lookups load these in a scalar loop and unpack them (bounds_from()) in a vectorised one:
-  /// the vectorised loads would be gathers, slower on the AMD cores we measure on.
+  /// the vectorised loads would be gathers, slower than scalar loads on common x86-64 cores.
   std::uint16_t block_word(std::uint32_t block) const { return block_bounds_[block]; }
   /// The bounds a packed word holds.
   static Bounds bounds_from(unsigned word) {
@@ -117,7 +117,7 @@ class Texture3D {
   void update_bounds();
   /// Starts loading the one cache line sample(f) reads. A pass of these ahead of a pass of
   /// sample() keeps more misses in flight than the sample loop alone, whose longer iterations
-  /// fill the core's reorder window (measured on the Zen 3 VM: docs/PERFORMANCE.md).
+  /// fill the core's reorder window.
   void prefetch(const Footprint& f) const { __builtin_prefetch(data_.data() + f.corner); }
   /// Trilinear value at footprint `f`, in [0, 1].
   float sample(const Footprint& f) const {

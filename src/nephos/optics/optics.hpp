@@ -1,5 +1,5 @@
 #pragma once
-// Radiometry and cloud optics for the global renderer (seed 000, section 2.3):
+// Radiometry and cloud optics for the global renderer (the fractal-cloud paper, section 2.3):
 // Planck radiance and its inverse, sensor bands, the 1976 U.S. Standard Atmosphere temperature,
 // the two-stream slab relations (2a)-(4b), Beer's law, and cloud optical properties.
 #include <cstddef>

@@ -1,6 +1,6 @@
 #pragma once
 // The weather a particle system needs, whatever model it came from (WRF or GFS): per column the
-// cloud base and top heights and the cloud optical thickness (seed 003, eq. 2), and the 3D wind
+// cloud base and top heights and the cloud optical thickness (the particle-cloud paper's eq. 2), and the 3D wind
 // on the model's levels, on a planar grid of uniform cells, at one or more times.
 //
 // Planar grid: x towards the grid's east, y towards its north, both in metres from the region's

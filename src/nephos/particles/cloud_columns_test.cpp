@@ -1,4 +1,4 @@
-// Column cloud geometry and optical thickness (seed 003, eq. 2) and the GFS path.
+// Column cloud geometry and optical thickness (the particle-cloud paper's eq. 2) and the GFS path.
 #include "nephos/particles/cloud_columns.hpp"
 
 #include <gtest/gtest.h>

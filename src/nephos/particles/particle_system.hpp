@@ -1,5 +1,5 @@
 #pragma once
-// The particle system of seed 003: particles placed by cloud-top height and optical thickness
+// The particle system of the WRF particle-cloud paper: particles placed by cloud-top height and optical thickness
 // (eqs. 3-5), moved by the model winds (eq. 6), thinned with distance (eq. 13) and lit
 // (eqs. 14-18). Structure of arrays; every random number is a counter-based hash of
 // (seed, particle, attempt), so results do not depend on the thread count.

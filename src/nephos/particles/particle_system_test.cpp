@@ -377,7 +377,7 @@ TEST(Illumination, GreyValuesFromTransmissionTowardsTheLight) {
   const auto grey = illuminate(g, c, p, sun, ip);
   for (std::size_t i = 0; i < 3; ++i) {
     const double tau = 0.01 * (3000 - static_cast<double>(p.z[i]));
-    // Conservative two-stream slab (eq. 3a of seed 000) with the similarity-scaled depth.
+    // Conservative two-stream slab (eq. 3a of the fractal-cloud paper) with the similarity-scaled depth.
     EXPECT_NEAR(grey[i], ip.ambient + (1 - ip.ambient) / (1 + (1 - ip.asymmetry) * tau), 1e-5) << i;
   }
   ip.transmission = Transmission::beer;

@@ -20,7 +20,7 @@ void write_particles_ply(const std::filesystem::path& path, const Particles& p, 
     out.rgba[4 * i] = out.rgba[4 * i + 1] = out.rgba[4 * i + 2] = g;
     out.rgba[4 * i + 3] = static_cast<std::uint8_t>(std::lround(255 * std::clamp(p.opacity[i], 0.0f, 1.0f)));
   }
-  out.comments = {"nephos particle clouds (seed 003 particle system)", fmt::format("time {}", time.iso()),
+  out.comments = {"nephos particle clouds (particle system from WRF/GFS cloud columns)", fmt::format("time {}", time.iso()),
                   fmt::format("x east, y north, z above mean sea level, metres; plane centred at lat {:.4f} lon {:.4f}",
                               w.grid.centre_lat_deg, w.grid.centre_lon_deg),
                   "red=green=blue: illumination grey value; alpha: opacity; radius: sprite radius [m]",
@@ -33,7 +33,7 @@ void write_columns_netcdf(const std::filesystem::path& path, const ParticleWeath
   const WeatherFrame& f = w.frames.at(frame);
   io::NetcdfWriter nc(path);
   nc.put_attribute(io::NetcdfWriter::global, "Conventions", "CF-1.8");
-  nc.put_attribute(io::NetcdfWriter::global, "title", "nephos particle-system cloud columns (seed 003, eq. 2)");
+  nc.put_attribute(io::NetcdfWriter::global, "title", "nephos particle-system cloud columns (cloud base, top and optical thickness)");
   nc.put_attribute(io::NetcdfWriter::global, "source", w.source);
   nc.put_attribute(io::NetcdfWriter::global, "time", f.valid_time.iso());
   nc.put_attribute(io::NetcdfWriter::global, "plane_centre_latitude", g.centre_lat_deg);

@@ -143,7 +143,7 @@ int CloudField::relocate(const glm::dvec3& camera, const glm::dvec3& forward, bo
     c.centre = place(layer_of_cloud_[k], c.id, c.relocations, camera, f, true);
     ++moved;
     if (!form) continue;
-    // It forms there (seed 004's formation fade) rather than popping into view; a dissipating
+    // It forms there (MSFS 2004's formation fade) rather than popping into view; a dissipating
     // cloud stays at opacity 0 and is removed by the next advance_time.
     c.opacity = c.fade_from = 0;
     c.fade_start_s = now_s_;

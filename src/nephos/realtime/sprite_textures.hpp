@@ -1,6 +1,6 @@
 #pragma once
 // The texture array of the sprite-cloud renderer, baked at start-up from nephos's own 3D fractal
-// (issue "real-time sprite clouds": several view angles per cloud type, no downloaded imagery;
+// (several view angles per cloud type, no downloaded imagery;
 // thesis section 3.1 photographs cumulus and stratocumulus from five angles, altostratus and
 // cirrus from three: from below, at 45 degrees, from above).
 //
@@ -47,7 +47,7 @@ struct SlabTexel {
 
 /// Radiance per unit opacity (the source function) of a slab of vertical optical depth `tau`
 /// seen from below (diffusely transmitted light, T - exp(-tau)) or above (reflected light, R),
-/// from the conservative two-stream relations (3a)/(3b) of seed 000 with the similarity-scaled
+/// from the conservative two-stream relations (3a)/(3b) of the fractal-cloud paper with the similarity-scaled
 /// depth (1 - g) tau; opacity 1 - exp(-tau). Limits for tau -> 0: g from below, 1 - g above
 /// (single scattering forwards and backwards).
 double slab_source(double tau, double asymmetry, bool from_below);

@@ -1,6 +1,5 @@
 #pragma once
-// Weather input for the real-time sprite clouds (issue "real-time sprite clouds", seeds 001 and
-// 004): Foreca weather symbol codes (hourly and daily JSON) and METAR cloud groups, decoded into
+// Weather input for the real-time sprite clouds (the billboard-cloud thesis and MSFS 2004): Foreca weather symbol codes (hourly and daily JSON) and METAR cloud groups, decoded into
 // a cloud recipe: how many sprite clouds of which type, in which altitude bands, clustered or
 // spread, plus the flat layers (altostratus, cirrus, fog/low stratus).
 #include <filesystem>

@@ -262,7 +262,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   const double thr = shell.threshold();
   // The two per-step loops vectorise (GCC 12) only through raw pointers, with the points
   // written as plain doubles and the booleans combined with & (see stage 1): through the
-  // thread-local vectors and Vec3 stores they ran lane by lane (measured: ~4 % of a frame).
+  // thread-local vectors and Vec3 stores they run lane by lane.
   {
     const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
     const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();

@@ -1,5 +1,5 @@
 #pragma once
-// The global fractal-cloud renderer (seed 000, section 2 and Figure 1): for every pixel, Earth
+// The global fractal-cloud renderer (the fractal-cloud paper, section 2 and Figure 1): for every pixel, Earth
 // occlusion, intersection with each cloud type's shell, a ray march with N steps, the first
 // level-set crossing refined by bisection, the surface normal from the cloud-function
 // gradient, and the cloud depth integrated along the rest of the shell; then the section 2.3
@@ -105,8 +105,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
 /// About the most memory render() holds for a width x height image [bytes]: its outputs (21 B
 /// per pixel, 4 more per band and per thermal band), the per-type layers' budget, and with
 /// k x k rays per pixel the sums and one sub-pixel image (~47 B + 12 B per band more). Checked
-/// against the machine's memory before any work (measured: 48 B per pixel at 3000^2 with the
-/// three default bands, 90 B with 4 rays per pixel).
+/// against the machine's memory before any work.
 double render_memory_bytes(int width, int height, const RenderParams& params);
 
 }  // namespace nephos::render

@@ -416,9 +416,9 @@ TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
 
 TEST(RendererOnGfs, RegionalWeatherMakesCloudsOnlyInItsRegion) {
   // Users often fetch a region, not the globe. A window of the real sample (30S-30N, 110-40W)
-  // as a regional grid: outside it there is no weather, so no cloud (before 2026-11-27 the
-  // outer rows were repeated to the poles, and clouds filled the grid's longitudes up to 73 N),
-  // and no NaN radiance; inside there are clouds.
+  // as a regional grid: outside it there is no weather, so no cloud, and no NaN radiance;
+  // inside there are clouds. Fault caught: the grid's outer rows repeated towards the poles
+  // (clouds up to 73 N).
   const auto& r = real();
   const weather::LatLonGrid& g = r.w.grid();
   const int j0 = static_cast<int>(std::lround((-30 - g.lat0_deg) / g.dlat_deg)), nj = 25;  // -30 .. 30

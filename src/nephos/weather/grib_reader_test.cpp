@@ -320,8 +320,8 @@ TEST(MultiTimeGrib, ReadsTheFirstValidTimeAloneOrEveryTime) {
 
 // NCEP packs u and v wind into one GRIB2 message with two fields. The test file holds two
 // messages copied byte for byte from the NOAA file in shared/data (data/README.md): gh at 500
-// hPa, and u and v at 500 hPa in one message. Reading only a message's first field would
-// lose v, as nephos did before 2026-11-27.
+// hPa, and u and v at 500 hPa in one message. Fault caught: reading only a message's first
+// field (v lost).
 TEST(MultiFieldGrib, EveryFieldOfAMessageIsRead) {
   const auto path =
       std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/test/gfs_20110110_12z_f120_500hPa_gh_uv_multifield.grib2";

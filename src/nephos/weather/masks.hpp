@@ -1,5 +1,5 @@
 #pragma once
-// Cloud weather masks (seed 000, section 2.2, Table 1): for each of four cloud types a
+// Cloud weather masks (the fractal-cloud paper, section 2.2, Table 1): for each of four cloud types a
 // continuous value in [0, 1] per grid column, the fraction of the column's sky covered by that
 // type, which the renderer's cloud function adds (equation 1).
 //

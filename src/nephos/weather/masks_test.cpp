@@ -192,7 +192,7 @@ void expect_agreement(const char* file) {
   const auto agreement = compare_with_gfs_cloud_cover(compute_masks(w, MaskParams{}), w);
   ASSERT_EQ(agreement.size(), 3u);
   for (const auto& a : agreement) {
-    // The goal: area-weighted correlation >= 0.75 per layer with one threshold set.
+    // Area-weighted correlation >= 0.75 per layer with one threshold set (a consistency check).
     EXPECT_GE(a.correlation, 0.75) << file << " layer " << name(a.layer);
     // Cover within 0.08 (absolute) of GFS's: the masks neither flood nor starve the sky.
     EXPECT_NEAR(a.mask_cover, a.gfs_cover, 0.08) << file << " layer " << name(a.layer);

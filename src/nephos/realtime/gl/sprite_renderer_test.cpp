@@ -208,8 +208,7 @@ TEST(SpriteRendererGl, LevelOfDetailDissolvesWithoutAPop) {
   // / 0.9 its sprites, and the two frames differ (by more than 30 levels somewhere). Across D a
   // 10 m change of the LOD distance changes the cloud's two weights by 10 m / (0.1 D), at most
   // 0.01 (D > 10 km), so no channel may move by more than 0.01 x 255 for each of the two, plus
-  // one level of rounding: allowed 6. A switch at D (before 2026-11-27) moved channels by up to
-  // 57 levels at this step (measured).
+  // one level of rounding: allowed 6. Fault caught: a switch at D (up to 57 levels at this step).
   const glm::dvec3 eye{0, 0, 2400};
   const CloudField field(recipe_from_code(parse_weather_code("d300")), 5, eye);
   const SunLight sun = sun_light(UtcTime::from_civil(2024, 6, 21, 10), 48, 11);
@@ -863,8 +862,8 @@ TEST(SpriteRendererGl, CloudsBeyondAFlatLayerAreBehindIt) {
   // crosses the deck's plane. An opaque low stratus deck at 2800 m over d300's cumulus and
   // stratocumulus (<= 2500 m), camera at 3500 m looking down: where the sprites alone would
   // show, the whole scene may differ from the deck alone only through the deck's breaks (a
-  // few per cent of its area), with the impostor ring and without. Drawn after the deck, as
-  // before 2026-11-25, they showed wherever they were (every sprite pixel).
+  // few per cent of its area), with the impostor ring and without. Fault caught: sprites drawn
+  // after the deck (they show wherever they are).
   CloudRecipe clouds = recipe_from_code(parse_weather_code("d300")), deck, both = clouds;
   deck.layers.push_back({SpriteCloudType::low_stratus, 1, 2800, 3000, 8});
   both.layers.push_back(deck.layers.back());
