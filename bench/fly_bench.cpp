@@ -48,9 +48,8 @@ realtime::StraightFlight make_flight(const char* code, bool clustered, std::uint
 // of the same flight: the ratio of the two means is then measured over the same minutes, so the
 // VM's slow and fast stretches (seconds to minutes long) fall on both alike. Which renderer
 // starts a round alternates too. Every frame is timed; a block's first frame runs on caches the
-// other renderer's frames have evicted (and its context just made current), which cost both
-// renderers ~0.2 ms per frame when they alternated frame by frame (docs/PERFORMANCE.md), a cost
-// no application drawing with one renderer pays; in blocks it falls on one frame in `block`.
+// other renderer's frames have evicted (and its context just made current), a cost no
+// application drawing with one renderer pays; in blocks it falls on one frame in `block`.
 // Each renderer first draws one untimed frame, then starts from a fresh ring, as every case of
 // the table does: llvmpipe compiles a shader variant on its first use (~30 ms for the impostor
 // renderer's, ~20 ms for the every-sprite renderer's), a once-per-process cost that the table's

@@ -63,7 +63,7 @@ class Triad {
 
 int run_lbm_bench(const LbmBenchOptions& o, std::uint64_t seed) {
   const int s = o.size;
-  // The process peaked at 1399 MiB at 128^3 with every kernel (docs/PERFORMANCE.md): ~700 B/cell.
+  // ~700 B/cell: the process's peak at 128^3 with every kernel (docs/PERFORMANCE.md, lbm table).
   require_memory(700.0 * s * s * s, "--size", fmt::format("the {}^3 lattice benchmarks", s));
   // chain: percolation, lighting and ray casting, which share their inputs.
   bool run_bgk = false, run_water = false, run_water16 = false, run_chain = false;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the sprite renderer's check for a lent GPU machine (docs/PERFORMANCE.md, "On a GPU"),
+# Builds the sprite renderer's check for a lent GPU machine (docs/PERFORMANCE.md, sprite section),
 # which has no Debian packages and so cannot run the nephos program: a portable build
 # (x86-64-v3 instead of this machine's -march=native) of realtime_test and nephos_gpu_check in
 # build-gpu/, then .gpu/ with the two programs, the shared libraries they load other than the C

@@ -425,8 +425,8 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
                                static_cast<float>(qz - std::floor(qz))));
       }
       // The bounds table (512 KiB per texture) lives in L3, not L2: its lines are requested
-      // here and read after the other terms' footprints (a few per cent of the shell pass in
-      // alternating single-thread runs, docs/PERFORMANCE.md).
+      // here and read after the other terms' footprints, so that the misses overlap
+      // (docs/PERFORMANCE.md, design choices).
       if (early_out)
         for (std::size_t a = 0; a < nlive; ++a) tex.prefetch_bounds(f.block[a]);
     }
@@ -474,7 +474,7 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
     }
     // Stage 3. The undecided points are compacted into a second array, not in place: in place,
     // the loads of sel[b + 1] and on waited on the store to sel[kept], whose address depends
-    // on the previous verdict (~10 % of stage 3, docs/PERFORMANCE.md).
+    // on the previous verdict (docs/PERFORMANCE.md, design choices).
     std::uint32_t* sel = w.sel.data();
     std::uint32_t* sel_next = w.sel_next.data();
     for (std::size_t t = 0; t < nt; ++t) {

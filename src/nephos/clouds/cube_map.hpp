@@ -77,7 +77,7 @@ class CubeMap {
   /// locate() of m directions (x[i], y[i], z[i]) into arrays (index[i], tx[i], ty[i]), in a loop
   /// that vectorises. Lookups of many directions locate here and load the texels in a scalar
   /// loop: vectorised, GCC 12 gathers the texels, which on the AMD cores we measure on is
-  /// slower than scalar loads from cached lines (docs/PERFORMANCE.md).
+  /// slower than scalar loads from cached lines (docs/PERFORMANCE.md, design choices).
   static void locate_many(int n, const double* x, const double* y, const double* z, std::size_t m, std::uint32_t* index,
                           float* tx, float* ty) {
 #pragma omp simd

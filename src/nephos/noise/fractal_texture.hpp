@@ -5,8 +5,8 @@
 // of float (three 256^3 textures: 48 MiB of voxels instead of 192) at a quantisation error of at most
 // 0.5/255 = 0.002 per voxel (tested); in the cloud function, whose fractal weights sum to 1,
 // the error is at most 0.002, a shift of the cloud surface by 0.2 % of the fractal range.
-// Random lookups from a texture set that is mostly in the L3 cache made the renderer ~5 %
-// faster than 16-bit storage (docs/PERFORMANCE.md).
+// 8 bits rather than 16 keep more of the texture set in the L3 cache, which random lookups
+// reward (docs/PERFORMANCE.md, design choices).
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -128,7 +128,7 @@ class Texture3D {
     // line) in one 32-byte load, one byte shuffle per 128-bit lane taking (y, x) at o, o + 1,
     // o + 4, o + 5 of its plane, the lanes merged. Then the interpolation four, two, then one
     // lane at a time with the scalar form's arithmetic, fused the same way (bit-identical), in
-    // fewer instructions (docs/PERFORMANCE.md).
+    // fewer instructions (docs/PERFORMANCE.md, design choices).
     const __m256i planes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d + (f.corner & ~15u)));
     constexpr char z = -128;  // pshufb: a set high bit writes zero (o <= 10 keeps it set)
     const __m256i pick = _mm256_add_epi8(_mm256_set1_epi8(static_cast<char>(f.corner & 15u)),
