@@ -5,7 +5,9 @@
 #   COMMIT    the commit to compare with (built in WORK_DIR/ref, tests and Python off)
 #   WORK_DIR  where the reference checkout, its build and both runs' outputs go
 #             (default: a new directory under /tmp)
-# Prints one line per file (same / DIFFERS) and exits 1 if any file differs. Left out of the
+# Prints one line per file (same / text / DIFFERS) and exits 1 if any file's data differ; "text"
+# marks a file whose data are identical and whose descriptive text (a NetCDF file's title,
+# comment, history or source attribute, a PLY file's comment lines) is not. Left out of the
 # byte comparison, and why: the frames.csv columns that are wall-clock times (the others are
 # compared) and clouds.vdb (OpenVDB stamps every file with a new UUID; its grids are the
 # fields of lbm.nc, which is compared).
@@ -63,8 +65,17 @@ digest() {
     *) sha256sum "$1" | cut -d' ' -f1 ;;
   esac
 }
+# A file without its descriptive text: the data and structure that a reader parses.
+data_digest() {
+  case "$1" in
+    *.nc) ncdump "$1" | grep -vE '^[[:space:]]*:(title|comment|history|source) = ' | tail -n +2 | sha256sum | cut -d' ' -f1 ;;
+    *.ply) grep -av '^comment ' "$1" | sha256sum | cut -d' ' -f1 ;;
+    *) digest "$1" ;;
+  esac
+}
 status=0
 count=0
+text_only=0
 while IFS= read -r f; do
   case "$f" in *.vdb) continue ;; esac
   count=$((count + 1))
@@ -73,6 +84,9 @@ while IFS= read -r f; do
     status=1
   elif [ "$(digest "$work/out_ref/$f")" = "$(digest "$work/out_new/$f")" ]; then
     echo "same     $f"
+  elif [ "$(data_digest "$work/out_ref/$f")" = "$(data_digest "$work/out_new/$f")" ]; then
+    echo "text     $f (the data identical, descriptive text not)"
+    text_only=$((text_only + 1))
   else
     echo "DIFFERS  $f"
     status=1
@@ -82,5 +96,12 @@ new_only=$(comm -13 <(cd "$work/out_ref" && find . -type f | sort) <(cd "$work/o
 if [ -n "$new_only" ]; then
   echo "new files: $new_only"
 fi
-echo "$count files compared with $ref_commit: $([ $status -eq 0 ] && echo 'all identical' || echo 'DIFFERENCES')"
+if [ $status -ne 0 ]; then
+  verdict=DIFFERENCES
+elif [ $text_only -gt 0 ]; then
+  verdict="the data all identical; descriptive text differs in $text_only"
+else
+  verdict="all identical"
+fi
+echo "$count files compared with $ref_commit: $verdict"
 exit $status

@@ -1,6 +1,6 @@
 #pragma once
 // The GL submits of the sprite renderer: its shader programs (one per Shading, compiled from
-// the embedded sprite.vert/sprite.frag with that shading's defines), the sprite texture array,
+// the embedded sprite.vert.glsl/sprite.frag.glsl with that shading's defines), the sprite texture array,
 // and the draws of instances and of the impostor ring's triangles into a target. Needs a
 // current context.
 #include <array>
