@@ -311,8 +311,10 @@ struct Footprints {
   noise::Texture3D::Footprint operator[](std::size_t a) const { return {corner[a], block[a], tx[a], ty[a], tz[a]}; }
 };
 
+}  // namespace
+
 // The working set of one chunk, as structure of arrays so that the geometric stages vectorise.
-struct EvalWork {
+struct CloudShell::EvalWork {
   // Every point of the chunk: unit direction, radius, the mask's upwind direction.
   alignas(64) double x[eval_chunk], y[eval_chunk], z[eval_chunk], r[eval_chunk];
   alignas(64) double mx[eval_chunk], my[eval_chunk], mz[eval_chunk];
@@ -331,187 +333,208 @@ struct EvalWork {
   alignas(64) std::uint16_t words[eval_chunk];          // the current term's packed block bounds
   std::array<std::uint32_t, eval_chunk> sel, sel_next;  // compacted positions still undecided
   alignas(64) float texel[eval_chunk];                  // the current term's samples, in sel order
+  // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign of
+  // each weight).
+  void rest(std::size_t a, std::size_t t, std::size_t nt, double& lo_sum, double& hi_sum) const {
+    lo_sum = hi_sum = 0;
+    for (std::size_t u = t; u < nt; ++u) lo_sum += lo[u][a], hi_sum += hi[u][a];
+  }
 };
 
-}  // namespace
+// The stages are always inlined into evaluate(): they are its parts, and separately compiled
+// they would lose the knowledge that out does not alias the chunk's working set.
 
-void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
-  // Staged over chunks of points; the geometric stages are branch-free loops over arrays that
-  // the compiler vectorises (AVX-512: 8 points per instruction), and the texture fetches of a
-  // chunk's points are independent, so out-of-order execution overlaps their cache misses
-  // (and a prefetch pass ahead of them overlaps more):
-  //  1. direction, radius, the mask at its upwind point and the altitude barriers; points
-  //     that cannot reach the level set leave;
-  //  2. the upwind points and texture footprints of every fractal term and, for classify(),
-  //     the terms' bounds over the footprints' blocks (a small table that stays in cache):
-  //     points whose side the bounds decide leave without touching the textures;
-  //  3. per term, in order, the sample, leaving as soon as the bounds of the terms not yet
-  //     added decide the side.
-  // Each point sees exactly the arithmetic of a one-point call, so results do not depend on n.
+// Stage 1: direction, radius, the mask at its upwind point and the altitude barriers; points
+// that cannot reach the level set get their value here and leave, the others are compacted
+// into w's live arrays. Returns their count.
+[[gnu::always_inline]] inline std::size_t CloudShell::mask_stage(const earth::Vec3* p, std::size_t c0, std::size_t m,
+                                                                 double* out, EvalWork& w) const {
   const double thr = p_.threshold;
-  std::array<int, 3> terms{};
-  const std::size_t nt = active_terms(terms);
   const CubeMap<float>& mask_cube = *mask_;
   const float* mask_texels = mask_cube.data().data();
   const int mask_n = mask_cube.size();
   const float* bt = barrier_table_.data();
   const double bt_last = static_cast<double>(barrier_table_.size() - 1);
+  int off_table = 0;  // points off the barrier table (none on a ray through the shell)
+#pragma omp simd reduction(+ : off_table)
+  for (std::size_t j = 0; j < m; ++j) {
+    const earth::Vec3& q = p[c0 + j];
+    const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    const double inv_r = 1 / r;  // one division instead of three
+    w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
+    // Where the barrier table is read, clamped to its range (points off it take barrier()
+    // below).
+    const double xb = r - earth::radius_m - barrier_z0_;
+    const double xc = std::min(std::max(xb, 0.0), bt_last - 1);
+    const int i = static_cast<int>(xc);
+    w.bar_index[j] = i, w.bar_t[j] = xc - i;
+    off_table += !((xb >= 0) & (xb <= bt_last - 1));
+  }
+  maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
+  CubeMap<float>::locate_many(mask_n, w.mx, w.my, w.mz, m, w.mask_index, w.mask_tx, w.mask_ty);
+  // The mask's and the table's loads in this scalar loop, not in the vectorised ones above
+  // (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD cores than scalar
+  // loads from cached lines; the mask's cube map is read coherently along image rows).
+  // Two copies of the loop: the one without barrier()'s call (the chunk is on the table, as
+  // every chunk of a march is) keeps its pointers and constants in registers.
+  auto live_points = [&]<bool AnyOff>() {
+    std::size_t live = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      using Cube = CubeMap<float>;
+      const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
+      const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
+      const int i = w.bar_index[j];
+      const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
+      const double table = bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]);
+      const double bar = !AnyOff || (xb >= 0 && xb <= bt_last - 1) ? table : barrier(alt);
+      const double base = bias_ + mask_term(mask) - bar;
+      if (mask < p_.min_mask) {
+        out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
+      } else if (base + fractal_max_ < thr) {
+        out[c0 + j] = base + fractal_max_;  // cannot reach the level set
+      } else {
+        w.id[live] = static_cast<std::uint32_t>(j);
+        w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
+        w.v[live] = base;
+        ++live;
+      }
+    }
+    return live;
+  };
+  return off_table ? live_points.template operator()<true>() : live_points.template operator()<false>();
+}
+
+// Stage 2: the upwind points and texture footprints of every fractal term (texture
+// coordinates in tiles, reduced in double before the float lookup) and, for classify(), the
+// terms' bounds over the footprints' blocks.
+[[gnu::always_inline]] inline void CloudShell::footprint_stage(const std::array<int, 3>& terms, std::size_t nt,
+                                                               std::size_t nlive, bool early_out, EvalWork& w) const {
+  for (std::size_t t = 0; t < nt; ++t) {
+    const int i = terms[t];
+    const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+    const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
+    if (!shares_upwind(terms, t)) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
+    const noise::Texture3D& tex = (*tex_)[i];
+    const double inv_ls = 1 / term.length_scale_m;
+    Footprints& f = w.f[t];
+#pragma omp simd
+    for (std::size_t a = 0; a < nlive; ++a) {
+      const double k = w.lr[a] * inv_ls;
+      const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
+      f.set(a, tex.footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
+                             static_cast<float>(qz - std::floor(qz))));
+    }
+    // The bounds table (512 KiB per texture) lives in L3, not L2: its lines are requested
+    // here and read after the other terms' footprints, so that the misses overlap
+    // (docs/PERFORMANCE.md, design choices).
+    if (early_out)
+      for (std::size_t a = 0; a < nlive; ++a) tex.prefetch_bounds(f.block[a]);
+  }
+  if (!early_out) return;  // value() adds every term: no bounds needed
+  for (std::size_t t = 0; t < nt; ++t) {
+    const int i = terms[t];
+    const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
+    const noise::Texture3D& tex = (*tex_)[i];
+    const Footprints& f = w.f[t];
+    for (std::size_t a = 0; a < nlive; ++a) w.words[a] = tex.block_word(f.block[a]);
+#pragma omp simd
+    for (std::size_t a = 0; a < nlive; ++a) {
+      const noise::Texture3D::Bounds b = noise::Texture3D::bounds_from(w.words[a]);
+      const double wl = weight * b.lo, wh = weight * b.hi;
+      w.lo[t][a] = std::min(wl, wh);
+      w.hi[t][a] = std::max(wl, wh);
+    }
+  }
+}
+
+// The live points whose side the bounds do not decide, into w.sel; returns their count. The
+// decided ones get a bound on their side as their value. Branch-free, since the bounds'
+// verdicts are hard to predict: every point is written with its bound and stored as selected;
+// only an undecided one advances the count (its value is written again later).
+[[gnu::always_inline]] inline std::size_t CloudShell::select_stage(std::size_t c0, std::size_t nt, std::size_t nlive,
+                                                                   bool early_out, double* out, EvalWork& w) const {
+  std::size_t nsel = 0;
+  if (!early_out) {
+    for (std::size_t a = 0; a < nlive; ++a) w.sel[nsel++] = static_cast<std::uint32_t>(a);
+    return nsel;
+  }
+  const double thr = p_.threshold;
+  for (std::size_t a = 0; a < nlive; ++a) {
+    double lo, hi;
+    w.rest(a, 0, nt, lo, hi);
+    const double v = w.v[a];
+    // The side decided by the local bounds:
+    const bool below = (v + hi < thr), above = (v + lo > thr);
+    out[c0 + w.id[a]] = v + (below ? hi : lo);
+    w.sel[nsel] = static_cast<std::uint32_t>(a);
+    nsel += !(below | above);
+  }
+  return nsel;
+}
+
+// Stage 3: per term, in order, the sample of the selected points, which leave as soon as the
+// bounds of the terms not yet added decide their side. The undecided points are compacted into
+// a second array, not in place: in place, the loads of sel[b + 1] and on waited on the store to
+// sel[kept], whose address depends on the previous verdict (docs/PERFORMANCE.md, design
+// choices).
+[[gnu::always_inline]] inline void CloudShell::sample_stage(const std::array<int, 3>& terms, std::size_t nt,
+                                                            std::size_t c0, std::size_t nsel, bool early_out,
+                                                            double* out, EvalWork& w) const {
+  const double thr = p_.threshold;
+  std::uint32_t* sel = w.sel.data();
+  std::uint32_t* sel_next = w.sel_next.data();
+  for (std::size_t t = 0; t < nt; ++t) {
+    const int i = terms[t];
+    const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
+    const noise::Texture3D& tex = (*tex_)[i];
+    // The fetches first, in a loop with no branch on their values, so that a mispredicted
+    // decision cannot squash the younger fetches in flight (the misses overlap).
+    const Footprints& f = w.f[t];
+    for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[sel[b]]);
+    for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[sel[b]]);
+    std::size_t kept = 0;
+    if (t + 1 == nt) {  // every term added: exact
+      for (std::size_t b = 0; b < nsel; ++b) {
+        const std::uint32_t a = sel[b];
+        out[c0 + w.id[a]] = w.v[a] += weight * w.texel[b];
+      }
+    } else if (early_out) {  // branch-free, as select_stage
+      for (std::size_t b = 0; b < nsel; ++b) {
+        const std::uint32_t a = sel[b];
+        const double v = w.v[a] += weight * w.texel[b];
+        double lo, hi;
+        w.rest(a, t + 1, nt, lo, hi);
+        // Decided: out holds a bound on the same side of the threshold.
+        const bool below = (v + hi < thr), above = (v + lo > thr);
+        out[c0 + w.id[a]] = v + (below ? hi : lo);
+        sel_next[kept] = a;
+        kept += !(below | above);
+      }
+    } else {
+      for (std::size_t b = 0; b < nsel; ++b) w.v[sel[b]] += weight * w.texel[b];
+      kept = nsel;
+    }
+    if (early_out && t + 1 < nt) std::swap(sel, sel_next);
+    nsel = kept;
+  }
+  for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[sel[b]]] = w.v[sel[b]];  // no terms at all
+}
+
+void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
+  // Staged over chunks of points; the geometric stages are branch-free loops over arrays that
+  // the compiler vectorises (AVX-512: 8 points per instruction), and the texture fetches of a
+  // chunk's points are independent, so out-of-order execution overlaps their cache misses
+  // (and a prefetch pass ahead of them overlaps more). Each point sees exactly the arithmetic
+  // of a one-point call, so results do not depend on n.
+  std::array<int, 3> terms{};
+  const std::size_t nt = active_terms(terms);
   EvalWork w;
   for (std::size_t c0 = 0; c0 < n; c0 += eval_chunk) {
     const std::size_t m = std::min(eval_chunk, n - c0);
-    // Stage 1.
-    int off_table = 0;  // points off the barrier table (none on a ray through the shell)
-#pragma omp simd reduction(+ : off_table)
-    for (std::size_t j = 0; j < m; ++j) {
-      const earth::Vec3& q = p[c0 + j];
-      const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-      const double inv_r = 1 / r;  // one division instead of three
-      w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
-      // Where the barrier table is read, clamped to its range (points off it take barrier()
-      // below).
-      const double xb = r - earth::radius_m - barrier_z0_;
-      const double xc = std::min(std::max(xb, 0.0), bt_last - 1);
-      const int i = static_cast<int>(xc);
-      w.bar_index[j] = i, w.bar_t[j] = xc - i;
-      off_table += !((xb >= 0) & (xb <= bt_last - 1));
-    }
-    maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
-    CubeMap<float>::locate_many(mask_n, w.mx, w.my, w.mz, m, w.mask_index, w.mask_tx, w.mask_ty);
-    // The mask's and the table's loads in this scalar loop, not in the vectorised ones above
-    // (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD cores than scalar
-    // loads from cached lines; the mask's cube map is read coherently along image rows).
-    // Two copies of the loop: the one without barrier()'s call (the chunk is on the table, as
-    // every chunk of a march is) keeps its pointers and constants in registers.
-    auto stage1 = [&]<bool AnyOff>() {
-      std::size_t live = 0;
-      for (std::size_t j = 0; j < m; ++j) {
-        using Cube = CubeMap<float>;
-        const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
-        const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
-        const int i = w.bar_index[j];
-        const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
-        const double table = bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]);
-        const double bar = !AnyOff || (xb >= 0 && xb <= bt_last - 1) ? table : barrier(alt);
-        const double base = bias_ + mask_term(mask) - bar;
-        if (mask < p_.min_mask) {
-          out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
-        } else if (base + fractal_max_ < thr) {
-          out[c0 + j] = base + fractal_max_;  // cannot reach the level set
-        } else {
-          w.id[live] = static_cast<std::uint32_t>(j);
-          w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
-          w.v[live] = base;
-          ++live;
-        }
-      }
-      return live;
-    };
-    const std::size_t nlive = off_table ? stage1.template operator()<true>() : stage1.template operator()<false>();
-    // Stage 2: footprints of every term (texture coordinates in tiles, reduced in double
-    // before the float lookup), then their bounds.
-    for (std::size_t t = 0; t < nt; ++t) {
-      const int i = terms[t];
-      const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
-      const DisplacementMap& map = maps_[static_cast<std::size_t>(i + 1)];
-      if (!shares_upwind(terms, t)) map.upwind(w.lx, w.ly, w.lz, nlive, w.ux, w.uy, w.uz);
-      const noise::Texture3D& tex = (*tex_)[i];
-      const double inv_ls = 1 / term.length_scale_m;
-      Footprints& f = w.f[t];
-#pragma omp simd
-      for (std::size_t a = 0; a < nlive; ++a) {
-        const double k = w.lr[a] * inv_ls;
-        const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
-        f.set(a, tex.footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
-                               static_cast<float>(qz - std::floor(qz))));
-      }
-      // The bounds table (512 KiB per texture) lives in L3, not L2: its lines are requested
-      // here and read after the other terms' footprints, so that the misses overlap
-      // (docs/PERFORMANCE.md, design choices).
-      if (early_out)
-        for (std::size_t a = 0; a < nlive; ++a) tex.prefetch_bounds(f.block[a]);
-    }
-    for (std::size_t t = 0; t < nt; ++t) {
-      const int i = terms[t];
-      const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
-      const noise::Texture3D& tex = (*tex_)[i];
-      Footprints& f = w.f[t];
-      if (early_out) {  // value() adds every term: no bounds needed
-        const double weight = term.weight;
-        for (std::size_t a = 0; a < nlive; ++a) w.words[a] = tex.block_word(f.block[a]);
-#pragma omp simd
-        for (std::size_t a = 0; a < nlive; ++a) {
-          const noise::Texture3D::Bounds b = noise::Texture3D::bounds_from(w.words[a]);
-          const double wl = weight * b.lo, wh = weight * b.hi;
-          w.lo[t][a] = std::min(wl, wh);
-          w.hi[t][a] = std::max(wl, wh);
-        }
-      }
-    }
-    // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign
-    // of each weight).
-    auto rest = [&w, nt](std::size_t a, std::size_t t, double& lo, double& hi) {
-      lo = hi = 0;
-      for (std::size_t u = t; u < nt; ++u) lo += w.lo[u][a], hi += w.hi[u][a];
-    };
-    std::size_t nsel = 0;
-    if (early_out) {
-      // Branch-free (the bounds' verdicts are hard to predict; with branches the selection and
-      // the decisions of stage 3 took ~7 % more of a GEO frame): every point is written with
-      // its bound and stored as selected; only an undecided one advances nsel (its value is
-      // written again later).
-      for (std::size_t a = 0; a < nlive; ++a) {
-        double lo, hi;
-        rest(a, 0, lo, hi);
-        const double v = w.v[a];
-        // The side decided by the local bounds:
-        const bool below = (v + hi < thr), above = (v + lo > thr);
-        out[c0 + w.id[a]] = v + (below ? hi : lo);
-        w.sel[nsel] = static_cast<std::uint32_t>(a);
-        nsel += !(below | above);
-      }
-    } else {
-      for (std::size_t a = 0; a < nlive; ++a) w.sel[nsel++] = static_cast<std::uint32_t>(a);
-    }
-    // Stage 3. The undecided points are compacted into a second array, not in place: in place,
-    // the loads of sel[b + 1] and on waited on the store to sel[kept], whose address depends
-    // on the previous verdict (docs/PERFORMANCE.md, design choices).
-    std::uint32_t* sel = w.sel.data();
-    std::uint32_t* sel_next = w.sel_next.data();
-    for (std::size_t t = 0; t < nt; ++t) {
-      const int i = terms[t];
-      const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
-      const noise::Texture3D& tex = (*tex_)[i];
-      // The fetches first, in a loop with no branch on their values, so that a mispredicted
-      // decision cannot squash the younger fetches in flight (the misses overlap).
-      const Footprints& f = w.f[t];
-      for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[sel[b]]);
-      for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[sel[b]]);
-      std::size_t kept = 0;
-      if (t + 1 == nt) {  // every term added: exact
-        for (std::size_t b = 0; b < nsel; ++b) {
-          const std::uint32_t a = sel[b];
-          out[c0 + w.id[a]] = w.v[a] += weight * w.texel[b];
-        }
-      } else if (early_out) {  // branch-free, as the selection above
-        for (std::size_t b = 0; b < nsel; ++b) {
-          const std::uint32_t a = sel[b];
-          const double v = w.v[a] += weight * w.texel[b];
-          double lo, hi;
-          rest(a, t + 1, lo, hi);
-          // Decided: out holds a bound on the same side of the threshold.
-          const bool below = (v + hi < thr), above = (v + lo > thr);
-          out[c0 + w.id[a]] = v + (below ? hi : lo);
-          sel_next[kept] = a;
-          kept += !(below | above);
-        }
-      } else {
-        for (std::size_t b = 0; b < nsel; ++b) w.v[sel[b]] += weight * w.texel[b];
-        kept = nsel;
-      }
-      if (early_out && t + 1 < nt) std::swap(sel, sel_next);
-      nsel = kept;
-    }
-    for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[sel[b]]] = w.v[sel[b]];  // no terms at all
+    const std::size_t nlive = mask_stage(p, c0, m, out, w);
+    footprint_stage(terms, nt, nlive, early_out, w);
+    const std::size_t nsel = select_stage(c0, nt, nlive, early_out, out, w);
+    sample_stage(terms, nt, c0, nsel, early_out, out, w);
   }
 }
 

@@ -171,6 +171,15 @@ class CloudShell {
   bool shares_upwind(const std::array<int, 3>& terms, std::size_t t) const;
   double evaluate(const earth::Vec3& p, bool early_out) const;
   void evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const;
+  // The stages of the batched evaluate() over one chunk of points (cloud_model.cpp).
+  struct EvalWork;
+  std::size_t mask_stage(const earth::Vec3* p, std::size_t c0, std::size_t m, double* out, EvalWork& w) const;
+  void footprint_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t nlive, bool early_out,
+                       EvalWork& w) const;
+  std::size_t select_stage(std::size_t c0, std::size_t nt, std::size_t nlive, bool early_out, double* out,
+                           EvalWork& w) const;
+  void sample_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t c0, std::size_t nsel,
+                    bool early_out, double* out, EvalWork& w) const;
   void build_skip_map();
   double barrier(double alt) const;
   /// The mask's term of CF: w m, or with calibration phi(m) (linear between 1025 nodes).

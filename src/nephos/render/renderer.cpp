@@ -143,42 +143,34 @@ struct MarchScratch {
     grads.resize(n);
     vals.resize(n);
   }
+  // The ray parameter and the point at path length s of marched ray j (Path::t_at).
+  double t_at(std::size_t j, double s) const { return s <= mla[j] ? ma0[j] + s : mb0[j] + (s - mla[j]); }
+  earth::Vec3 point(const earth::Vec3& o, std::size_t j, double s) const {
+    const double t = t_at(j, s);
+    return earth::Vec3{std::fma(t, dx[j], o.x), std::fma(t, dy[j], o.y), std::fma(t, dz[j], o.z)};
+  }
 };
 
-}  // namespace
-
-void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
-                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits) {
-  // Rays advance in lockstep, one batched classify() per step over every ray still in the
-  // shell, so the texture misses of different rays overlap (see CloudShell::classify). Every
-  // per-ray stage is a branch-free loop over arrays that vectorises; a ray's result does not
-  // depend on the other rays of the batch. Multiply-adds in these loops are explicit std::fma:
-  // left to the compiler, the vector body and the scalar remainder contract differently.
-  thread_local MarchScratch w;
-  for (std::size_t i = 0; i < n; ++i) hits[i] = ShellHit{};
+// Stage 1 of march_shell, for every ray: the part inside the shell, up to two intervals (in
+// front of and behind the inner sphere when a ray grazes below the shell bottom without
+// reaching the ground); the path's ends and the number of skip lookups it needs, one per skip
+// radius of arc. The arc between the ends is bounded by its chord c without trigonometry (arc =
+// 2 asin(c/2) <= c / sqrt(1 - c^2/4)). A ray that misses the shell (a GEO frame's space pixels)
+// looks up a dummy direction and is dropped after.
+// The loop vectorises (GCC 12, -fopt-info-vec) only as written: the origin and directions read
+// as plain doubles (not through the reference or glm's union members), stores through raw
+// pointers (through the vectors, every store could move their own data pointers), the booleans
+// combined with & (no short-circuit branches), no struct locals and no std::min/max.
+void shell_paths(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
+                 std::size_t n, MarchScratch& w) {
   w.resize_rays(n);
-  // 1. The part of each ray inside the shell: up to two intervals (in front of and behind the
-  //    inner sphere when a ray grazes below the shell bottom without reaching the ground).
+  w.resize_ends(n);
   const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
   const double oo = glm::dot(o, o), c_top = oo - r_top * r_top, c_bottom = oo - r_bottom * r_bottom;
-  // 2. (In the same loop, for every ray.) Empty-space skipping: look up the mask's
-  //    neighbourhood maximum along the path, one lookup per skip radius of arc; a ray whose
-  //    whole path sees no possible cloud costs nothing more. The arc between the path's ends
-  //    is bounded by its chord c without trigonometry (arc = 2 asin(c/2) <= c / sqrt(1 -
-  //    c^2/4)); most paths (steep views) are shorter than one skip radius, and one lookup at
-  //    their start covers them. All lookups are batched: the start of every ray, then the far
-  //    end and the interior points of the long paths still undecided. A ray that misses the
-  //    shell (a GEO frame's space pixels) looks up a dummy direction and is dropped after.
-  // The loop vectorises (GCC 12, -fopt-info-vec) only as written: the origin and directions read
-  // as plain doubles (not through the reference or glm's union members), stores through raw
-  // pointers, the booleans combined with & (no short-circuit branches), no struct locals and
-  // no std::min/max (see above).
   const double inv_radius = 1 / shell.skip_radius_rad();
   const double ox = o.x, oy = o.y, oz = o.z;
   static_assert(sizeof(earth::Vec3) == 3 * sizeof(double));
   const double* dxyz = &d[0].x;
-  w.resize_ends(n);
-  // Raw pointers: through the vectors, every store could move their own data pointers.
   double *pa0 = w.a0.data(), *pla = w.la.data(), *pb0 = w.b0.data(), *pb1 = w.b1.data(), *plen = w.len.data();
   double *ex = w.ex.data(), *ey = w.ey.data(), *ez = w.ez.data();
   std::uint8_t* in_shell = w.in_shell.data();
@@ -211,7 +203,6 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     // square root and one division (the divider is the loop's bottleneck). Its cancellation
     // at short paths (relative error ~1e-16 / angle^2) matters only where the count of lookups
     // changes, at an angle of one skip radius (~1e-3 rad): an error of ~1e-10.
-    // Now that the loop vectorises, its sums are explicit fma like the march's (see above).
     const double rr0 = std::fma(z0, z0, std::fma(y0, y0, x0 * x0)), rr1 = std::fma(z1, z1, std::fma(y1, y1, x1 * x1));
     const double cos_angle = std::fma(z0, z1, std::fma(y0, y1, x0 * x1)) / std::sqrt(rr0 * rr1);
     const double c2 = max_v(std::fma(-2.0, cos_angle, 2.0), 0.0);
@@ -219,6 +210,15 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     segments[i] = 1 + static_cast<int>(min_v(arc_bound * inv_radius, 1e6));
     ex[i] = x0, ey[i] = y0, ez[i] = z0, ex[n + i] = x1, ey[n + i] = y1, ez[n + i] = z1;
   }
+}
+
+// Stage 2, empty-space skipping: the mask's neighbourhood maximum looked up along each path,
+// batched (the start of every ray, then the far end and the interior points of the long paths
+// still undecided; most paths, in steep views, are shorter than one skip radius and one lookup
+// covers them). A ray whose whole path sees no possible cloud costs nothing more. The rays to
+// march go into w.idx and their paths into the compacted arrays; returns their count.
+std::size_t rays_to_march(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, std::size_t n,
+                          int steps, MarchScratch& w) {
   shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), n, w.possible.data());
   w.owner.clear();
   w.ix.clear(), w.iy.clear(), w.iz.clear();
@@ -238,12 +238,11 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   w.interior.resize(w.owner.size());
   shell.may_have_cloud(w.ix.data(), w.iy.data(), w.iz.data(), w.owner.size(), w.interior.data());
   for (std::size_t k = 0; k < w.owner.size(); ++k) w.possible[w.owner[k]] |= w.interior[k];
-  std::size_t nr = 0;  // rays marched, compacted into idx
+  std::size_t nr = 0;
   w.idx.resize(n);
   for (std::size_t i = 0; i < n; ++i)
     if (w.in_shell[i] && w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
-  for (std::size_t j = 0; j < nr; ++j) hits[w.idx[j]].marched = true;
-  if (nr == 0) return;
+  if (nr == 0) return 0;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
     const std::uint32_t i = w.idx[j];
@@ -252,53 +251,58 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     w.dx[j] = d[i].x, w.dy[j] = d[i].y, w.dz[j] = d[i].z;
     w.k_hit[j] = -1, w.v_prev[j] = 0, w.lo[j] = 0, w.hi[j] = 0, w.depth_after[j] = 0;
   }
-  // The ray parameter and the point at path length s of marched ray j (Path::t_at).
-  auto t_at = [](std::size_t j, double s) { return s <= w.mla[j] ? w.ma0[j] + s : w.mb0[j] + (s - w.mla[j]); };
-  auto point = [&o, &t_at](std::size_t j, double s) {
-    const double t = t_at(j, s);
-    return earth::Vec3{std::fma(t, w.dx[j], o.x), std::fma(t, w.dy[j], o.y), std::fma(t, w.dz[j], o.z)};
-  };
-  // 3. The march.
+  return nr;
+}
+
+// Stage 3, the march of the nr compacted rays in lockstep: per ray, the first step inside (its
+// crossing bracketed in [lo, hi]) and the depth inside after it. The two per-step loops
+// vectorise (GCC 12) only through raw pointers, with the points written as plain doubles and the
+// booleans combined with &: through the thread-local vectors and Vec3 stores they run lane by
+// lane.
+void march_steps(const clouds::CloudShell& shell, const earth::Vec3& o, int steps, std::size_t nr, MarchScratch& w) {
   const double thr = shell.threshold();
-  // The two per-step loops vectorise (GCC 12) only through raw pointers, with the points
-  // written as plain doubles and the booleans combined with & (see stage 1): through the
-  // thread-local vectors and Vec3 stores they run lane by lane.
-  {
-    const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
-    const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();
-    double *pts = &w.pts[0].x, *v_prev = w.v_prev.data(), *lo = w.lo.data(), *hi = w.hi.data();
-    double* depth_after = w.depth_after.data();
-    int* k_hit = w.k_hit.data();
-    for (int k = 0; k <= steps; ++k) {
-      const double kd = k, km1 = k > 0 ? k - 1 : 0;
+  const double ox = o.x, oy = o.y, oz = o.z;
+  const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
+  const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();
+  double *pts = &w.pts[0].x, *v_prev = w.v_prev.data(), *lo = w.lo.data(), *hi = w.hi.data();
+  double* depth_after = w.depth_after.data();
+  int* k_hit = w.k_hit.data();
+  for (int k = 0; k <= steps; ++k) {
+    const double kd = k, km1 = k > 0 ? k - 1 : 0;
 #pragma omp simd
-      for (std::size_t j = 0; j < nr; ++j) {
-        const double s = kd * ds[j];
-        const double t = s <= mla[j] ? ma0[j] + s : mb0[j] + (s - mla[j]);  // t_at(j, s)
-        pts[3 * j] = std::fma(t, rdx[j], ox), pts[3 * j + 1] = std::fma(t, rdy[j], oy);
-        pts[3 * j + 2] = std::fma(t, rdz[j], oz);
-      }
-      shell.classify(w.pts.data(), nr, w.vals.data());
+    for (std::size_t j = 0; j < nr; ++j) {
+      const double s = kd * ds[j];
+      const double t = s <= mla[j] ? ma0[j] + s : mb0[j] + (s - mla[j]);  // MarchScratch::t_at(j, s)
+      pts[3 * j] = std::fma(t, rdx[j], ox), pts[3 * j + 1] = std::fma(t, rdy[j], oy);
+      pts[3 * j + 2] = std::fma(t, rdz[j], oz);
+    }
+    shell.classify(w.pts.data(), nr, w.vals.data());
 #pragma omp simd
-      for (std::size_t j = 0; j < nr; ++j) {
-        const double v = vals[j] - thr, vp = v_prev[j];
-        const bool after = k_hit[j] >= 0;
-        const bool first = !after & (v > 0);  // first sample inside: bracket the crossing
-        // After the crossing step, depth by linear interpolation between samples (of CF, or of
-        // the bounds classify() returns, which keep CF's side: accuracy of order one step):
-        // the length of the step where the interpolant exceeds 0.
-        const double x = vp / (vp - v);  // where the interpolant crosses 0 (used only on a sign change)
-        const bool both_in = (vp > 0) & (v > 0), both_out = (vp <= 0) & (v <= 0);
-        const double inside = !after ? 0.0 : both_in ? 1.0 : both_out ? 0.0 : vp > 0 ? x : 1 - x;
-        depth_after[j] = std::fma(ds[j], inside, depth_after[j]);
-        lo[j] = first ? km1 * ds[j] : lo[j];
-        hi[j] = first ? kd * ds[j] : hi[j];
-        k_hit[j] = first ? k : k_hit[j];
-        v_prev[j] = v;
-      }
+    for (std::size_t j = 0; j < nr; ++j) {
+      const double v = vals[j] - thr, vp = v_prev[j];
+      const bool after = k_hit[j] >= 0;
+      const bool first = !after & (v > 0);  // first sample inside: bracket the crossing
+      // After the crossing step, depth by linear interpolation between samples (of CF, or of
+      // the bounds classify() returns, which keep CF's side: accuracy of order one step): the
+      // length of the step where the interpolant exceeds 0.
+      const double x = vp / (vp - v);  // where the interpolant crosses 0 (used only on a sign change)
+      const bool both_in = (vp > 0) & (v > 0), both_out = (vp <= 0) & (v <= 0);
+      const double inside = !after ? 0.0 : both_in ? 1.0 : both_out ? 0.0 : vp > 0 ? x : 1 - x;
+      depth_after[j] = std::fma(ds[j], inside, depth_after[j]);
+      lo[j] = first ? km1 * ds[j] : lo[j];
+      hi[j] = first ? kd * ds[j] : hi[j];
+      k_hit[j] = first ? k : k_hit[j];
+      v_prev[j] = v;
     }
   }
-  // 4. Keep the rays that found cloud; refine their first crossing by bisection, all together.
+}
+
+// Stage 4: the rays that found cloud compacted to the front; their first crossings refined
+// together by bisection, each bracket halved until it is shorter than the finest texture voxel
+// (the smallest feature the cloud function has), at most bisection_iterations times. Returns
+// their count.
+std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3& o, int bisection_iterations,
+                             std::size_t nr, MarchScratch& w) {
   std::size_t nh = 0;
   for (std::size_t j = 0; j < nr; ++j) {
     if (w.k_hit[j] < 0) continue;
@@ -307,9 +311,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     w.k_hit[nh] = w.k_hit[j], w.lo[nh] = w.lo[j], w.hi[nh] = w.hi[j], w.depth_after[nh] = w.depth_after[j];
     ++nh;
   }
-  // Each bracket is halved until it is shorter than the finest texture voxel (the smallest
-  // feature the cloud function has), at most bisection_iterations times.
-  const double tolerance = shell.feature_size_m();
+  const double thr = shell.threshold(), tolerance = shell.feature_size_m();
   for (int it = 0; it < bisection_iterations; ++it) {
     std::size_t na = 0;  // rays still refined, compacted into act
     w.act.resize(nh);
@@ -318,7 +320,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     if (na == 0) break;
     for (std::size_t a = 0; a < na; ++a) {
       const std::uint32_t j = w.act[a];
-      w.pts[a] = point(j, 0.5 * (w.lo[j] + w.hi[j]));
+      w.pts[a] = w.point(o, j, 0.5 * (w.lo[j] + w.hi[j]));
     }
     shell.classify(w.pts.data(), na, w.vals.data());
     for (std::size_t a = 0; a < na; ++a) {
@@ -326,17 +328,23 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
       (w.vals[a] - thr > 0 ? w.hi[j] : w.lo[j]) = 0.5 * (w.lo[j] + w.hi[j]);
     }
   }
-  // 5. Surface normals from the CF gradient (CloudShell::value_and_gradient: the textures'
-  //    own gradients, the smooth parts by forward differences with h ~ two fine voxels).
+  return nh;
+}
+
+// Stage 5: the nh hits with their surface normals from the CF gradient
+// (CloudShell::value_and_gradient: the textures' own gradients, the smooth parts by forward
+// differences with h ~ two fine voxels).
+void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, std::size_t nh, MarchScratch& w,
+                ShellHit* hits) {
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
-  for (std::size_t j = 0; j < nh; ++j) w.pts[j] = point(j, w.k_hit[j] == 0 ? 0.0 : w.hi[j]);
+  for (std::size_t j = 0; j < nh; ++j) w.pts[j] = w.point(o, j, w.k_hit[j] == 0 ? 0.0 : w.hi[j]);
   shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data());
   for (std::size_t j = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
     ShellHit& hit = hits[w.idx[j]];
     const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
     hit.hit = true;
-    hit.t = t_at(j, s_hit);
+    hit.t = w.t_at(j, s_hit);
     hit.position = w.pts[j];
     // Depth: from the surface to the end of the crossing step, then the steps after it.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
@@ -344,6 +352,26 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
   }
+}
+
+}  // namespace
+
+void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits) {
+  // Rays advance in lockstep, one batched classify() per step over every ray still in the
+  // shell, so the texture misses of different rays overlap (see CloudShell::classify). Every
+  // per-ray stage is a branch-free loop over arrays that vectorises; a ray's result does not
+  // depend on the other rays of the batch. Multiply-adds in these loops are explicit std::fma:
+  // left to the compiler, the vector body and the scalar remainder contract differently.
+  thread_local MarchScratch w;
+  for (std::size_t i = 0; i < n; ++i) hits[i] = ShellHit{};
+  shell_paths(shell, o, d, t_max, n, w);
+  const std::size_t nr = rays_to_march(shell, o, d, n, steps, w);
+  for (std::size_t j = 0; j < nr; ++j) hits[w.idx[j]].marched = true;
+  if (nr == 0) return;
+  march_steps(shell, o, steps, nr, w);
+  const std::size_t nh = refine_crossings(shell, o, bisection_iterations, nr, w);
+  write_hits(shell, o, nh, w, hits);
 }
 
 std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bool stratified, std::uint64_t seed) {
@@ -403,199 +431,260 @@ struct SubPixel {
   }
 };
 
-// One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, no
-// brightness temperatures (render() converts the final radiances).
-RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
-                      const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
-                      const SubPixel& sub, Progress& progress) {
-  const int w = sensor.width, h = sensor.height;
-  const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-  const std::size_t nb = params.bands.size();
-  const std::vector<const optics::Band*>& bands = tables.bands;
-  const std::vector<const PlanckTable*>& planck = tables.planck;
-  const earth::Vec3 sun_dir = sun.direction_ecef;
-  const double sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
-  const double f_ind = params.indirect_fraction;
+// What every stage of render_at() reads: the scene, the sensor and the Sun, the parameters, the
+// bands, each cloud type's optics per band and the thermal background.
+struct RenderContext {
+  const clouds::CloudScene& scene;
+  const Sensor& sensor;
+  const RenderParams& params;
+  const weather::WeatherGrid* weather;
+  const BandTables& tables;
+  const SubPixel& sub;
+  earth::Vec3 sun_dir;
+  double sun_scale = 1;  ///< (1 AU / Sun distance)^2
+  std::vector<std::vector<optics::OpticalProperties>> props;  ///< [type][band]
+  std::vector<optics::OpticalProperties> vis_props;           ///< [type], for the optical depth
+  std::vector<double> asymmetry;                              ///< [type]
+  std::vector<float> surface_t;  ///< the weather's lowest-level temperature [K], or empty
 
+  RenderContext(const clouds::CloudScene& scene_, const Sensor& sensor_, const earth::SunPosition& sun,
+                const RenderParams& params_, const weather::WeatherGrid* weather_, const BandTables& tables_,
+                const SubPixel& sub_)
+      : scene(scene_), sensor(sensor_), params(params_), weather(weather_), tables(tables_), sub(sub_) {
+    sun_dir = sun.direction_ecef;
+    sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
+    // Thermal background: the temperature of the weather's lowest level (1000 hPa for GFS).
+    if (weather && weather->has(weather::Field::temperature, 0))
+      surface_t.assign(weather->level_data(weather::Field::temperature, 0),
+                       weather->level_data(weather::Field::temperature, 0) + weather->grid().size());
+    const std::size_t ns = scene.shells.size();
+    props.resize(ns), vis_props.resize(ns), asymmetry.resize(ns);
+    for (std::size_t si = 0; si < ns; ++si) {
+      const clouds::CloudTypeParams& cp = scene.shells[si].params();
+      asymmetry[si] = cp.asymmetry;
+      for (const auto* b : tables.bands)
+        props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
+      vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
+    }
+  }
+  std::size_t band_count() const { return tables.bands.size(); }
+};
+
+// The per-type layers of one band of image rows [y0, y1), and each row's distance to the Earth.
+// The image is rendered in bands of rows whose per-type layers (12 + 8 nb B per pixel and type:
+// 36 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited band by
+// band: each type's pass still sweeps many rows with its textures in cache, and the image holds
+// only its outputs (~37 B per pixel for three spectral bands, not ~180 with every type's layers
+// of the whole image: a 10848^2 full disc in 4 GiB, not 21). No pixel's result depends on the
+// band size: the bands change only the order of independent work (tested bit for bit).
+struct RowBand {
+  int rows = 1;                    ///< rows per band
+  std::size_t ns = 0, lbf = 0;     ///< types; floats per layer's band values
+  int y0 = 0, y1 = 0;              ///< the rows it holds now
+  std::vector<Layer> layers;       ///< [row pixel][type]
+  std::vector<float> layer_bands;  ///< [row pixel][type][layer_band_floats]
+  std::vector<float> t_earth;      ///< to the Earth's surface [m]; inf: space
+
+  explicit RowBand(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
+    const int w = c.sensor.width;
+    const std::size_t row_layer_bytes =
+        static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * (sizeof(Layer) + lbf * sizeof(float));
+    rows = static_cast<int>(std::clamp<std::size_t>(std::max<std::size_t>(c.params.layer_budget_bytes / row_layer_bytes,
+                                                                           8 * static_cast<std::size_t>(thread_count())),
+                                                    1, static_cast<std::size_t>(c.sensor.height)));
+    layers.resize(static_cast<std::size_t>(rows) * w * ns);
+    layer_bands.resize(layers.size() * lbf);
+    t_earth.resize(static_cast<std::size_t>(rows) * w);
+  }
+  Layer& layer(std::size_t bpx, std::size_t si) { return layers[bpx * ns + si]; }
+  float* bands(std::size_t bpx, std::size_t si) { return &layer_bands[(bpx * ns + si) * lbf]; }
+};
+
+// Starts band rows [y0, y1): layers cleared, each pixel's distance to the Earth.
+void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
+  const int w = c.sensor.width;
+  rb.y0 = y0, rb.y1 = y1;
+  std::fill(rb.layers.begin(), rb.layers.end(), Layer{});
+#pragma omp parallel for schedule(static)
+  for (int y = y0; y < y1; ++y) {
+    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+    c.sub.row_rays(c.sensor, y, dirs.data());
+    for (int x = 0; x < w; ++x) {
+      const auto e = earth::ray_sphere(c.sensor.position, dirs[static_cast<std::size_t>(x)], earth::radius_m);
+      rb.t_earth[static_cast<std::size_t>(y - y0) * w + x] =
+          e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
+    }
+  }
+}
+
+// One cloud type's layer at a hit: distance, altitude, visible optical depth, and per band the
+// radiance leaving it towards the sensor and the transmittance of what lies behind.
+void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, Layer& L, float* lb) {
+  const std::size_t nb = c.band_count();
+  const double f_ind = c.params.indirect_fraction;
+  L.t = static_cast<float>(hit.t);
+  const double r = glm::length(hit.position);
+  const earth::Vec3 up = hit.position / r;
+  L.altitude = static_cast<float>(r - earth::radius_m);
+  L.tau_vis = static_cast<float>(c.vis_props[si].extinction_per_m * hit.depth_m);
+  const double mu_sun_local = glm::dot(c.sun_dir, up);  // sine of the Sun's elevation here
+  const double mu0 = glm::dot(hit.normal, c.sun_dir);
+  const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
+  for (std::size_t b = 0; b < nb; ++b) {
+    // The slab along the line of sight, similarity-scaled for forward scattering (g = 0: the
+    // source paper's slab, unchanged to the bit).
+    const optics::OpticalProperties& p = c.props[si][b];
+    const optics::SlabOptics so =
+        optics::similarity_scaled(p.extinction_per_m * hit.depth_m, p.single_scattering_albedo, c.asymmetry[si]);
+    const optics::SlabResult slab = optics::two_stream_slab(so.tau, so.omega);
+    const double e_sun = c.tables.bands[b]->solar_irradiance * c.sun_scale;
+    double rad = 0;
+    if (mu_sun_local > 0) {
+      rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
+      rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
+    }
+    const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
+    rad += emissivity * c.tables.planck[b]->forward(t_cloud);  // thermal emission
+    lb[b] = static_cast<float>(rad);
+    // What lies behind, seen through the forward-scattered light as well (the scaled tau).
+    lb[nb + b] = static_cast<float>(optics::beer_transmittance(so.tau));
+  }
+}
+
+// One pass of cloud type si over the band's rows: each row's rays marched together (in
+// lockstep: see march_shell), the hits shaded into the band's layers. Returns the rays marched.
+std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Progress& progress) {
+  const clouds::CloudShell& shell = c.scene.shells[si];
+  const int w = c.sensor.width;
+  std::uint64_t marched = 0;
+#pragma omp parallel
+  {
+    // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
+    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+    std::vector<double> t_max(static_cast<std::size_t>(w));
+    std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
+#pragma omp for schedule(dynamic, 4) reduction(+ : marched)
+    for (int y = rb.y0; y < rb.y1; ++y) {
+      c.sub.row_rays(c.sensor, y, dirs.data());
+      const std::size_t row = static_cast<std::size_t>(y - rb.y0) * w;
+      for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = rb.t_earth[row + x];
+      march_shell(shell, c.sensor.position, dirs.data(), t_max.data(), dirs.size(), c.params.steps,
+                  c.params.bisection_iterations, row_hits.data());
+      for (int x = 0; x < w; ++x) {
+        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
+        marched += hit.marched;
+        if (hit.hit) shade_hit(c, si, hit, rb.layer(row + x, si), rb.bands(row + x, si));
+      }
+      progress.advance();
+    }
+  }
+  return marched;
+}
+
+// The background of a pixel whose ray meets the Earth at q: reflected sunlight from a grey
+// Lambertian surface and emission at the weather's lowest-level temperature, per band.
+void surface_background(const RenderContext& c, const earth::Vec3& q, const earth::Geodetic& g,
+                        std::array<double, optics::max_band_count>& bg) {
+  const double mu_s = std::max(0.0, glm::dot(c.sun_dir, q / glm::length(q)));
+  double t_surf = c.params.surface_temperature_k;
+  if (!c.surface_t.empty()) {
+    const float v = weather::sample_bilinear(c.weather->grid(), c.surface_t, g.lat_deg, g.lon_deg);
+    if (!std::isnan(v)) t_surf = v;
+  }
+  for (std::size_t b = 0; b < c.band_count(); ++b)
+    bg[b] = c.params.surface_albedo * c.tables.bands[b]->solar_irradiance * c.sun_scale * mu_s / M_PI +
+            c.tables.planck[b]->forward(t_surf);
+}
+
+// The band's rows into the image: the background, then the layers front to back.
+void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
+  const int w = c.sensor.width;
+  const std::size_t ns = rb.ns, nb = c.band_count();
+#pragma omp parallel for schedule(static)
+  for (int y = rb.y0; y < rb.y1; ++y) {
+    std::vector<std::size_t> order(ns);
+    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
+    c.sub.row_rays(c.sensor, y, dirs.data());
+    for (int x = 0; x < w; ++x) {
+      const std::size_t px = static_cast<std::size_t>(y) * w + x;
+      const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;  // within the band
+      const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
+      std::array<double, optics::max_band_count> bg{};
+      if (std::isfinite(rb.t_earth[bpx])) {
+        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
+        const earth::Geodetic g = earth::geodetic(q);
+        img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+        img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+        surface_background(c, q, g, bg);
+      }
+      const Layer* pl = &rb.layer(bpx, 0);
+      for (std::size_t s = 0; s < ns; ++s) order[s] = s;
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
+      std::array<double, optics::max_band_count> rad{}, trans;
+      trans.fill(1.0);
+      float tau = 0;
+      for (std::size_t s = 0; s < ns; ++s) {
+        const Layer& L = pl[order[s]];
+        const float* const lb = rb.bands(bpx, order[s]);
+        if (!std::isfinite(L.t)) break;
+        if (s == 0) {
+          img.cloud_fraction[px] = 1;
+          img.cloud_top_altitude_m[px] = L.altitude;
+          img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
+          const earth::Geodetic g = earth::geodetic(c.sensor.position + static_cast<double>(L.t) * d);
+          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+        }
+        tau += L.tau_vis;
+        for (std::size_t b = 0; b < nb; ++b) {
+          rad[b] += trans[b] * lb[b];
+          trans[b] *= lb[nb + b];
+        }
+      }
+      img.cloud_optical_depth[px] = tau;
+      for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
+    }
+  }
+}
+
+// An image of w x h pixels with every output allocated, clear sky.
+RenderImage blank_image(int w, int h, const std::vector<std::string>& bands) {
+  const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   RenderImage img;
   img.width = w;
   img.height = h;
-  img.bands = params.bands;
-  img.radiance.assign(nb, std::vector<float>(npx, 0.0f));
-  img.brightness_temperature.assign(nb, {});
+  img.bands = bands;
+  img.radiance.assign(bands.size(), std::vector<float>(npx, 0.0f));
+  img.brightness_temperature.assign(bands.size(), {});
   img.cloud_top_altitude_m.assign(npx, nanf);
   img.cloud_optical_depth.assign(npx, 0.0f);
   img.cloud_type.assign(npx, -1);
   img.cloud_fraction.assign(npx, 0.0f);
   img.latitude_deg.assign(npx, nanf);
   img.longitude_deg.assign(npx, nanf);
+  return img;
+}
 
-  // Thermal background: the temperature of the weather's lowest level (1000 hPa for GFS).
-  std::vector<float> surface_t;
-  if (weather && weather->has(weather::Field::temperature, 0))
-    surface_t.assign(weather->level_data(weather::Field::temperature, 0),
-                     weather->level_data(weather::Field::temperature, 0) + weather->grid().size());
-
-  // Each cloud type's optics per band, and the visible extinction for the optical depth.
+// One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, no
+// brightness temperatures (render() converts the final radiances).
+RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
+                      const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
+                      const SubPixel& sub, Progress& progress) {
+  const RenderContext c(scene, sensor, sun, params, weather, tables, sub);
+  RenderImage img = blank_image(sensor.width, sensor.height, params.bands);
   const std::size_t ns = scene.shells.size();
-  std::vector<std::vector<optics::OpticalProperties>> props(ns);
-  std::vector<optics::OpticalProperties> vis_props(ns);
-  std::vector<double> asymmetry(ns);
-  for (std::size_t si = 0; si < ns; ++si) {
-    const clouds::CloudTypeParams& cp = scene.shells[si].params();
-    asymmetry[si] = cp.asymmetry;
-    for (const auto* b : bands)
-      props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
-    vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
-  }
-
-  // The image is rendered in bands of rows whose per-type layers (12 + 8 nb B per pixel and
-  // type: 36 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
-  // band by band: each type's pass still sweeps many rows with its textures in cache, and the
-  // image holds only its outputs (~37 B per pixel for three spectral bands, not ~180 with every
-  // type's layers of the whole image: a 10848^2 full disc in 4 GiB, not 21). No pixel's result
-  // depends on the band size: the bands change only the order of independent work (tested bit
-  // for bit).
-  const std::size_t lbf = layer_band_floats(nb);
-  const std::size_t row_layer_bytes =
-      static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * (sizeof(Layer) + lbf * sizeof(float));
-  const int band_rows = static_cast<int>(std::clamp<std::size_t>(
-      std::max<std::size_t>(params.layer_budget_bytes / row_layer_bytes, 8 * static_cast<std::size_t>(thread_count())),
-      1, static_cast<std::size_t>(h)));
-  std::vector<Layer> layers(static_cast<std::size_t>(band_rows) * w * ns);
-  std::vector<float> layer_bands(layers.size() * lbf);
-  std::vector<float> t_earth(static_cast<std::size_t>(band_rows) * w);  // to the Earth's surface; inf: space
   std::vector<double> seconds(ns, 0.0);
   std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
-
-  for (int y0 = 0; y0 < h; y0 += band_rows) {
-    const int y1 = std::min(h, y0 + band_rows);
-    std::fill(layers.begin(), layers.end(), Layer{});
-#pragma omp parallel for schedule(static)
-    for (int y = y0; y < y1; ++y) {
-      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-      sub.row_rays(sensor, y, dirs.data());
-      for (int x = 0; x < w; ++x) {
-        const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
-        const auto e = earth::ray_sphere(sensor.position, d, earth::radius_m);
-        t_earth[static_cast<std::size_t>(y - y0) * w + x] =
-            e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
-      }
-    }
-
+  RowBand rb(c);
+  for (int y0 = 0; y0 < sensor.height; y0 += rb.rows) {
+    begin_rows(c, y0, std::min(sensor.height, y0 + rb.rows), rb);
     // One pass per cloud type over the band's rows, each timed; layers kept for compositing.
     for (std::size_t si = 0; si < ns; ++si) {
-      const clouds::CloudShell& shell = scene.shells[si];
       const auto t0 = std::chrono::steady_clock::now();
-      std::uint64_t marched_here = 0;
-#pragma omp parallel
-      {
-        // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
-        std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-        std::vector<double> t_max(static_cast<std::size_t>(w));
-        std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-#pragma omp for schedule(dynamic, 4) reduction(+ : marched_here)
-        for (int y = y0; y < y1; ++y) {
-          // A whole row marched together (rays in lockstep: see march_shell).
-          sub.row_rays(sensor, y, dirs.data());
-          const std::size_t row = static_cast<std::size_t>(y - y0) * w;
-          for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = t_earth[row + x];
-          march_shell(shell, sensor.position, dirs.data(), t_max.data(), dirs.size(), params.steps,
-                      params.bisection_iterations, row_hits.data());
-          for (int x = 0; x < w; ++x) {
-            const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
-            marched_here += hit.marched;
-            if (!hit.hit) continue;
-            Layer& L = layers[(row + x) * ns + si];
-            float* const lb = &layer_bands[((row + x) * ns + si) * lbf];
-            L.t = static_cast<float>(hit.t);
-            const double r = glm::length(hit.position);
-            const earth::Vec3 up = hit.position / r;
-            L.altitude = static_cast<float>(r - earth::radius_m);
-            L.tau_vis = static_cast<float>(vis_props[si].extinction_per_m * hit.depth_m);
-            const double mu_sun_local = glm::dot(sun_dir, up);  // sine of the Sun's elevation here
-            const double mu0 = glm::dot(hit.normal, sun_dir);
-            const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
-            for (std::size_t b = 0; b < nb; ++b) {
-              // The slab along the line of sight, similarity-scaled for forward scattering (g = 0:
-              // the seed's slab, unchanged to the bit).
-              const optics::SlabOptics so = optics::similarity_scaled(
-                  props[si][b].extinction_per_m * hit.depth_m, props[si][b].single_scattering_albedo, asymmetry[si]);
-              const optics::SlabResult slab = optics::two_stream_slab(so.tau, so.omega);
-              const double e_sun = bands[b]->solar_irradiance * sun_scale;
-              double rad = 0;
-              if (mu_sun_local > 0) {
-                rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
-                rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
-              }
-              const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
-              rad += emissivity * planck[b]->forward(t_cloud);  // thermal emission
-              lb[b] = static_cast<float>(rad);
-              // What lies behind, seen through the forward-scattered light as well (the scaled tau).
-              lb[nb + b] = static_cast<float>(optics::beer_transmittance(so.tau));
-            }
-          }
-          progress.advance();
-        }
-      }
+      marched[si] += trace_type(c, si, rb, progress);
       seconds[si] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      marched[si] += marched_here;
     }
-
-    // Background and front-to-back compositing of the band.
-#pragma omp parallel for schedule(static)
-    for (int y = y0; y < y1; ++y) {
-      std::vector<std::size_t> order(ns);
-      std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-      sub.row_rays(sensor, y, dirs.data());
-      for (int x = 0; x < w; ++x) {
-        const std::size_t px = static_cast<std::size_t>(y) * w + x;
-        const std::size_t bpx = static_cast<std::size_t>(y - y0) * w + x;  // within the band
-        const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
-        std::array<double, optics::max_band_count> bg{};
-        if (std::isfinite(t_earth[bpx])) {
-          const earth::Vec3 q = sensor.position + static_cast<double>(t_earth[bpx]) * d;
-          const earth::Geodetic g = earth::geodetic(q);
-          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-          const double mu_s = std::max(0.0, glm::dot(sun_dir, q / glm::length(q)));
-          double t_surf = params.surface_temperature_k;
-          if (!surface_t.empty()) {
-            const float v = weather::sample_bilinear(weather->grid(), surface_t, g.lat_deg, g.lon_deg);
-            if (!std::isnan(v)) t_surf = v;
-          }
-          for (std::size_t b = 0; b < nb; ++b)
-            bg[b] = params.surface_albedo * bands[b]->solar_irradiance * sun_scale * mu_s / M_PI +
-                    planck[b]->forward(t_surf);
-        }
-        const Layer* pl = &layers[bpx * ns];
-        for (std::size_t s = 0; s < ns; ++s) order[s] = s;
-        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
-        std::array<double, optics::max_band_count> rad{}, trans;
-        trans.fill(1.0);
-        float tau = 0;
-        for (std::size_t s = 0; s < ns; ++s) {
-          const Layer& L = pl[order[s]];
-          const float* const lb = &layer_bands[(bpx * ns + order[s]) * lbf];
-          if (!std::isfinite(L.t)) break;
-          if (s == 0) {
-            img.cloud_fraction[px] = 1;
-            img.cloud_top_altitude_m[px] = L.altitude;
-            img.cloud_type[px] = static_cast<std::int8_t>(scene.shells[order[s]].type());
-            const earth::Geodetic g = earth::geodetic(sensor.position + static_cast<double>(L.t) * d);
-            img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-            img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-          }
-          tau += L.tau_vis;
-          for (std::size_t b = 0; b < nb; ++b) {
-            rad[b] += trans[b] * lb[b];
-            trans[b] *= lb[nb + b];
-          }
-        }
-        img.cloud_optical_depth[px] = tau;
-        for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
-      }
-    }
+    composite_rows(c, rb, img);
   }
   for (std::size_t si = 0; si < ns; ++si) {
     img.seconds_per_type.emplace_back(weather::name(scene.shells[si].type()), seconds[si]);
