@@ -178,8 +178,8 @@ class CloudShell {
                        EvalWork& w) const;
   std::size_t select_stage(std::size_t c0, std::size_t nt, std::size_t nlive, bool early_out, double* out,
                            EvalWork& w) const;
-  void sample_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t c0, std::size_t nsel,
-                    bool early_out, double* out, EvalWork& w) const;
+  void sample_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t c0, std::size_t nsel, bool early_out,
+                    double* out, EvalWork& w) const;
   void build_skip_map();
   double barrier(double alt) const;
   /// The mask's term of CF: w m, or with calibration phi(m) (linear between 1025 nodes).

@@ -441,11 +441,11 @@ struct RenderContext {
   const BandTables& tables;
   const SubPixel& sub;
   earth::Vec3 sun_dir;
-  double sun_scale = 1;  ///< (1 AU / Sun distance)^2
+  double sun_scale = 1;                                       ///< (1 AU / Sun distance)^2
   std::vector<std::vector<optics::OpticalProperties>> props;  ///< [type][band]
   std::vector<optics::OpticalProperties> vis_props;           ///< [type], for the optical depth
   std::vector<double> asymmetry;                              ///< [type]
-  std::vector<float> surface_t;  ///< the weather's lowest-level temperature [K], or empty
+  std::vector<float> surface_t;                               ///< the weather's lowest-level temperature [K], or empty
 
   RenderContext(const clouds::CloudScene& scene_, const Sensor& sensor_, const earth::SunPosition& sun,
                 const RenderParams& params_, const weather::WeatherGrid* weather_, const BandTables& tables_,
@@ -464,7 +464,8 @@ struct RenderContext {
       asymmetry[si] = cp.asymmetry;
       for (const auto* b : tables.bands)
         props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
-      vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
+      vis_props[si] =
+          optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
     }
   }
   std::size_t band_count() const { return tables.bands.size(); }
@@ -490,7 +491,7 @@ struct RowBand {
     const std::size_t row_layer_bytes =
         static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * (sizeof(Layer) + lbf * sizeof(float));
     rows = static_cast<int>(std::clamp<std::size_t>(std::max<std::size_t>(c.params.layer_budget_bytes / row_layer_bytes,
-                                                                           8 * static_cast<std::size_t>(thread_count())),
+                                                                          8 * static_cast<std::size_t>(thread_count())),
                                                     1, static_cast<std::size_t>(c.sensor.height)));
     layers.resize(static_cast<std::size_t>(rows) * w * ns);
     layer_bands.resize(layers.size() * lbf);
