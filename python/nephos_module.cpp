@@ -596,6 +596,7 @@ PYBIND11_MODULE(nephos, m) {
           py::dict d;
           d["name"] = b.name;
           d["description"] = b.description;
+          d["abi_band"] = b.abi_band;
           d["centre_um"] = b.centre_um;
           d["lo_um"] = b.lo_um;
           d["hi_um"] = b.hi_um;

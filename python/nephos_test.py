@@ -91,12 +91,15 @@ class Render(unittest.TestCase):
         self.assertEqual(sorted(img["seconds_per_type"]), ["cirrus", "low_stratus"])
 
     def test_the_band_table(self):
-        # The nine GOES-16 ABI bands Scene.render takes, with what a sensor model needs of them.
+        # The 16 GOES-16 ABI bands Scene.render takes, with what a sensor model needs of them.
         bands = nephos.bands()
         self.assertEqual([b["name"] for b in bands],
-                         ["vis", "nir", "lwir", "blue", "swir16", "swir22", "mwir", "lwir11", "lwir12"])
-        self.assertEqual({b["name"] for b in bands if b["thermal"]}, {"mwir", "lwir", "lwir11", "lwir12"})
-        vis = bands[0]
+                         ["blue", "vis", "nir", "cirrus", "swir16", "swir22", "mwir", "wv62", "wv69", "wv73",
+                          "ir85", "o3", "lwir", "lwir11", "lwir12", "co2"])
+        self.assertEqual([b["abi_band"] for b in bands], list(range(1, 17)))
+        self.assertEqual([b["name"] for b in bands if not b["thermal"]],
+                         ["blue", "vis", "nir", "cirrus", "swir16", "swir22"])
+        vis = bands[1]
         self.assertEqual((vis["centre_um"], vis["lo_um"], vis["hi_um"]), (0.64, 0.59, 0.69))
         self.assertEqual(vis["solar_irradiance_w_m2_um"], 1631.3351)  # ABI L1b esun, band 2
         self.assertIn("ABI band 2", vis["description"])

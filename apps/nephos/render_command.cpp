@@ -87,7 +87,7 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
   rend->add_option("--types", o->types, "Cloud types, comma-separated")->capture_default_str();
   rend->add_option(
           "--bands", o->bands,
-          "Bands, comma-separated: " + optics::band_names() + " (GOES-16 ABI bands 2, 3, 13, 1, 5, 6, 7, 14, 15)")
+          "Bands, comma-separated: " + optics::band_names() + " (GOES-16 ABI bands 1-16, also named C01..C16), or all")
       ->capture_default_str();
   rend->add_option("--steps", o->steps, "Ray-marching steps per shell")->capture_default_str();
   rend->add_option("--samples", o->samples,

@@ -18,6 +18,11 @@ double brightness_temperature(double lambda_um, double radiance) {
   return c2_um_k / (lambda_um * std::log1p(c1_w_um4_m2_sr / (std::pow(lambda_um, 5) * radiance)));
 }
 
+namespace data {
+extern const double astm_g173_extraterrestrial[];  // [nm, W m^-2 nm^-1] rows
+extern const std::size_t astm_g173_extraterrestrial_rows, astm_g173_extraterrestrial_cols;
+}  // namespace data
+
 namespace {
 // Sun as a 5772 K blackbody (IAU 2015 nominal effective temperature) seen from 1 AU:
 // E = pi B(lambda, T_sun) (R_sun / AU)^2, R_sun = 695,700 km, AU = 149,597,870.7 km.
@@ -28,29 +33,59 @@ double solar_blackbody_irradiance(double lo_um, double hi_um) {
   for (int i = 0; i < n; ++i) sum += planck(lo_um + (i + 0.5) * (hi_um - lo_um) / n, 5772.0);
   return M_PI * dilution * sum / n;
 }
+
+// The ASTM G173-03 extraterrestrial irradiance at wavelength [nm], linear between its rows.
+double astm_irradiance_w_m2_nm(double nm) {
+  const double* t = data::astm_g173_extraterrestrial;
+  const std::size_t n = data::astm_g173_extraterrestrial_rows;
+  std::size_t lo = 0, hi = n - 1;
+  while (hi - lo > 1) {
+    const std::size_t mid = (lo + hi) / 2;
+    (t[2 * mid] <= nm ? lo : hi) = mid;
+  }
+  const double x0 = t[2 * lo], x1 = t[2 * hi];
+  return t[2 * lo + 1] + (nm - x0) / (x1 - x0) * (t[2 * hi + 1] - t[2 * lo + 1]);
+}
 }  // namespace
 
+double solar_spectrum_irradiance(double lo_um, double hi_um) {
+  if (lo_um >= 4.0 || lo_um < 0.28) return solar_blackbody_irradiance(lo_um, hi_um);
+  // Mean over the band by the midpoint rule at <= 0.1 nm, finer than the table's 0.5-5 nm rows.
+  const int n = std::max(64, static_cast<int>((hi_um - lo_um) * 1e4));
+  double sum = 0;
+  for (int i = 0; i < n; ++i) sum += astm_irradiance_w_m2_nm(1000 * (lo_um + (i + 0.5) * (hi_um - lo_um) / n));
+  return 1000 * sum / n;  // per nm -> per um
+}
+
 const std::vector<Band>& bands() {
-  // Solar irradiance of the reflective ABI bands: the band-equivalent values "esun" that GOES-16
-  // L1b files carry (band 1: 2017.1648, 2: 1631.3351, 3: 957.0699, 5: 242.54037, 6: 76.8999 W
-  // m^-2 um^-1). The emissive bands have no published esun: the Sun as a 5772 K blackbody,
-  // which matters in band 7 (3.9 um: ~10 W m^-2 um^-1, reflected sunlight of the same order as
-  // a cloud's emission by day) and is negligible beside the thermal emission in bands 13-15
-  // (0.13-0.25 W m^-2 um^-1: under 0.1 W m^-2 sr^-1 um^-1 reflected, against ~8 emitted), kept
-  // for completeness. Band edges: the ABI's nominal wavelength ranges.
+  // Band edges and centres: the ABI's nominal wavelength ranges (Schmit et al. 2017, BAMS 98,
+  // 681-698, Table 1). Solar irradiance of the reflective bands 1-6: the band-equivalent values
+  // "esun" that GOES-16 L1b files carry, so that reflectances computed from nephos's radiances
+  // as from ABI's (pi L d^2 / esun) agree. Bands 7-16: the ASTM G173 spectrum (band 7) and the
+  // 5772 K Sun beyond 4 um, negligible beside the emission there (0.01-0.25 W m^-2 um^-1).
   static const std::vector<Band> b{
-      {"vis", "GOES-16 ABI band 2 (red)", 0.64, 0.59, 0.69, 1631.3351, false},
-      {"nir", "GOES-16 ABI band 3 (veggie)", 0.865, 0.846, 0.885, 957.0699, false},
-      {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 10.35, 10.1, 10.6,
-       solar_blackbody_irradiance(10.1, 10.6), true},
-      {"blue", "GOES-16 ABI band 1 (blue)", 0.47, 0.45, 0.49, 2017.1648, false},
-      {"swir16", "GOES-16 ABI band 5 (snow/ice)", 1.61, 1.58, 1.64, 242.54037, false},
-      {"swir22", "GOES-16 ABI band 6 (cloud particle size)", 2.24, 2.225, 2.275, 76.8999, false},
-      {"mwir", "GOES-16 ABI band 7 (shortwave window)", 3.9, 3.8, 4.0, solar_blackbody_irradiance(3.8, 4.0), true},
-      {"lwir11", "GOES-16 ABI band 14 (long-wave window)", 11.2, 10.8, 11.6, solar_blackbody_irradiance(10.8, 11.6),
+      {"blue", "GOES-16 ABI band 1 (blue)", 1, 0.47, 0.45, 0.49, 2017.1648, false},
+      {"vis", "GOES-16 ABI band 2 (red)", 2, 0.64, 0.59, 0.69, 1631.3351, false},
+      {"nir", "GOES-16 ABI band 3 (veggie)", 3, 0.865, 0.846, 0.885, 957.0699, false},
+      {"cirrus", "GOES-16 ABI band 4 (cirrus)", 4, 1.378, 1.371, 1.386, 360.90176, false},
+      {"swir16", "GOES-16 ABI band 5 (snow/ice)", 5, 1.61, 1.58, 1.64, 242.54037, false},
+      {"swir22", "GOES-16 ABI band 6 (cloud particle size)", 6, 2.24, 2.225, 2.275, 76.8999, false},
+      {"mwir", "GOES-16 ABI band 7 (shortwave window)", 7, 3.9, 3.8, 4.0, solar_spectrum_irradiance(3.8, 4.0), true},
+      {"wv62", "GOES-16 ABI band 8 (upper-level water vapour)", 8, 6.19, 5.77, 6.6,
+       solar_spectrum_irradiance(5.77, 6.6), true},
+      {"wv69", "GOES-16 ABI band 9 (mid-level water vapour)", 9, 6.95, 6.75, 7.15,
+       solar_spectrum_irradiance(6.75, 7.15), true},
+      {"wv73", "GOES-16 ABI band 10 (lower-level water vapour)", 10, 7.34, 7.24, 7.44,
+       solar_spectrum_irradiance(7.24, 7.44), true},
+      {"ir85", "GOES-16 ABI band 11 (cloud-top phase)", 11, 8.5, 8.3, 8.7, solar_spectrum_irradiance(8.3, 8.7), true},
+      {"o3", "GOES-16 ABI band 12 (ozone)", 12, 9.61, 9.42, 9.8, solar_spectrum_irradiance(9.42, 9.8), true},
+      {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 13, 10.35, 10.1, 10.6,
+       solar_spectrum_irradiance(10.1, 10.6), true},
+      {"lwir11", "GOES-16 ABI band 14 (long-wave window)", 14, 11.2, 10.8, 11.6, solar_spectrum_irradiance(10.8, 11.6),
        true},
-      {"lwir12", "GOES-16 ABI band 15 (dirty long-wave window)", 12.3, 11.8, 12.8,
-       solar_blackbody_irradiance(11.8, 12.8), true},
+      {"lwir12", "GOES-16 ABI band 15 (dirty long-wave window)", 15, 12.3, 11.8, 12.8,
+       solar_spectrum_irradiance(11.8, 12.8), true},
+      {"co2", "GOES-16 ABI band 16 (CO2 long-wave)", 16, 13.3, 13.0, 13.6, solar_spectrum_irradiance(13.0, 13.6), true},
   };
   return b;
 }
@@ -63,7 +98,7 @@ std::string band_names() {
 
 const Band& band(const std::string& name) {
   for (const auto& b : bands())
-    if (b.name == name) return b;
+    if (b.name == name || name == fmt::format("C{:02d}", b.abi_band)) return b;
   throw ValueError("unknown band '" + name + "' (known: " + band_names() + ")", {.key = "bands"});
 }
 

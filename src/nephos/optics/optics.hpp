@@ -20,20 +20,27 @@ double brightness_temperature(double wavelength_um, double radiance);
 
 // ---- Sensor bands -------------------------------------------------------------------------
 struct Band {
-  std::string name;                ///< "vis", "nir", "lwir"
-  std::string description;         ///< e.g. "GOES-16 ABI band 2"
+  std::string name;                ///< "vis", "nir", "lwir", ...
+  std::string description;         ///< e.g. "GOES-16 ABI band 2 (red)"
+  int abi_band;                    ///< GOES-16 ABI band number, 1-16
   double centre_um, lo_um, hi_um;  ///< central wavelength and band edges
   double solar_irradiance;         ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
   bool thermal;                    ///< thermal emission matters (report brightness temperature)
 };
-/// The built-in bands, GOES-16 ABI's window bands: vis (ABI 2, 0.64 um), nir (ABI 3, 0.865
-/// um), lwir (ABI 13, 10.35 um), blue (ABI 1, 0.47 um), swir16 (ABI 5, 1.61 um), swir22 (ABI 6,
-/// 2.24 um), mwir (ABI 7, 3.9 um), lwir11 (ABI 14, 11.2 um), lwir12 (ABI 15, 12.3 um).
+/// The 16 bands of GOES-16's Advanced Baseline Imager, in band order: blue (1, 0.47 um), vis
+/// (2, 0.64), nir (3, 0.865), cirrus (4, 1.378), swir16 (5, 1.61), swir22 (6, 2.24), mwir (7,
+/// 3.9), wv62 (8, 6.19), wv69 (9, 6.95), wv73 (10, 7.34), ir85 (11, 8.5), o3 (12, 9.61), lwir
+/// (13, 10.35), lwir11 (14, 11.2), lwir12 (15, 12.3), co2 (16, 13.3).
 const std::vector<Band>& bands();
-const Band& band(const std::string& name);  ///< ValueError listing the known names
-std::string band_names();                   ///< "vis, nir, lwir, blue, ..."
+/// The band of a name or of its ABI channel name ("C01".."C16"); ValueError listing the names.
+const Band& band(const std::string& name);
+std::string band_names();  ///< "blue, vis, nir, ..."
 /// The most bands one render takes: every built-in band once.
-inline constexpr std::size_t max_band_count = 9;
+inline constexpr std::size_t max_band_count = 16;
+/// Band-mean extraterrestrial solar irradiance at 1 AU [W m^-2 um^-1] over [lo, hi] um, from the
+/// ASTM G173-03 extraterrestrial spectrum (0.28-4 um; Gueymard 2004), and beyond 4 um from the
+/// Sun as a 5772 K blackbody.
+double solar_spectrum_irradiance(double lo_um, double hi_um);
 
 /// Band-mean Planck radiance [W m^-2 sr^-1 um^-1]: (1 / (hi - lo)) * integral of B over the band.
 double band_planck(const Band& b, double temperature_k);

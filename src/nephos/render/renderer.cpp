@@ -719,17 +719,24 @@ void RenderParams::set_steps(int n, const std::string& key) {
 }
 
 void RenderParams::set_bands(const std::vector<std::string>& names, const std::string& key) {
-  if (names.empty()) throw ValueError("no band: at least one of " + optics::band_names(), {.key = key});
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    try {
-      optics::band(names[i]);
-    } catch (const ValueError& e) {
-      throw ValueError(e.message(), {.key = key});
-    }
-    for (std::size_t j = 0; j < i; ++j)
-      if (names[i] == names[j]) throw ValueError("'" + names[i] + "' is listed twice", {.key = key});
+  if (names.empty()) throw ValueError("no band: at least one of " + optics::band_names() + ", or all", {.key = key});
+  if (names.size() == 1 && names[0] == "all") {
+    bands.clear();
+    for (const optics::Band& b : optics::bands()) bands.push_back(b.name);
+    return;
   }
-  bands = names;
+  std::vector<std::string> canonical;  // ABI channel names ("C13") as the band's own ("lwir")
+  for (const std::string& name : names) {
+    try {
+      canonical.push_back(optics::band(name).name);
+    } catch (const ValueError& e) {
+      throw ValueError(e.message() + (name == "all" ? " ('all' stands alone)" : ""), {.key = key});
+    }
+    for (std::size_t j = 0; j + 1 < canonical.size(); ++j)
+      if (canonical.back() == canonical[j])
+        throw ValueError("'" + name + "' is listed twice (" + canonical[j] + ")", {.key = key});
+  }
+  bands = canonical;
 }
 
 void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {

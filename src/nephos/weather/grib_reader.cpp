@@ -208,6 +208,12 @@ bool orography_field(const std::string& short_name, const std::string& level_typ
   return level_type == "surface" && (short_name == "orog" || short_name == "z");
 }
 
+std::optional<SurfaceField> surface_field_for(const std::string& short_name, const std::string& level_type) {
+  for (const auto& si : all_surface_fields())
+    if (short_name == si.grib_short_name && level_type == si.grib_level_type) return si.field;
+  return std::nullopt;
+}
+
 std::optional<CloudLayer> cloud_layer_for(const std::string& level_type) {
   for (int l = 0; l < cloud_layer_count; ++l)
     if (level_type == grib_level_type(static_cast<CloudLayer>(l))) return static_cast<CloudLayer>(l);
@@ -297,6 +303,7 @@ class GribReader final : public WeatherReader {
     // Duplicates: (field, or a condensate part's own name; pressure in mPa).
     std::set<std::pair<std::string, long long>> seen;
     std::map<CloudLayer, std::vector<float>> cloud;
+    std::map<SurfaceField, std::vector<float>> surface;
     WeatherMetadata meta;  // from its first pressure-level field
   };
 
@@ -373,6 +380,11 @@ class GribReader final : public WeatherReader {
         slices[valid_time()].cloud[*layer] = values(sn, sn);
       } else if (orography_field(sn, lt) && orography.empty()) {
         orography = values(sn, sn);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
+      } else if (const auto sf = surface_field_for(sn, lt)) {
+        std::vector<float> v = values(sn + "@" + lt, sn);
+        if (const float s = info(*sf).scale; s != 1.0f)
+          for (float& x : v) x *= s;
+        slices[valid_time()].surface[*sf] = std::move(v);
       }
     });
 
@@ -393,14 +405,15 @@ class GribReader final : public WeatherReader {
     // Cloud cover at a time without pressure-level fields (or, without `all`, at another time)
     // has nothing to go with.
     for (auto& [t, slice] : slices)
-      if (slice.pending.empty() && t != *first) skipped[t] += static_cast<int>(slice.cloud.size());
+      if (slice.pending.empty() && t != *first)
+        skipped[t] += static_cast<int>(slice.cloud.size() + slice.surface.size());
     if (!skipped.empty()) {
       int n = 0;
       std::vector<std::string> times;
       for (const auto& [t, count] : skipped) n += count, times.push_back(t.iso());
       if (all)
-        spdlog::warn("{}: {} cloud-cover fields at {}, where the file has no pressure-level fields, are not read", file,
-                     n, fmt::join(times, ", "));
+        spdlog::warn("{}: {} single-level fields at {}, where the file has no pressure-level fields, are not read",
+                     file, n, fmt::join(times, ", "));
       else
         spdlog::log(at ? spdlog::level::info : spdlog::level::warn,
                     "{}: fields for {} valid times; reading those of {} ({}) and skipping {} at {} (the commands "
@@ -444,6 +457,7 @@ class GribReader final : public WeatherReader {
         std::copy(p.values.begin(), p.values.end(), dst);
     }
     for (auto& [layer, v] : slice.cloud) w.cloud_cover_mut(layer) = std::move(v);
+    for (auto& [f, v] : slice.surface) w.surface_mut(f) = std::move(v);
     w.orography_m_mut() = orography;
     WeatherMetadata meta = slice.meta;
     meta.source = file;
@@ -469,7 +483,8 @@ GribInventory inventory_grib(const std::filesystem::path& path) {
     grids.insert(get_string(h, "gridType"));
     const std::string sn = get_string(h, "shortName"), lt = get_string(h, "typeOfLevel");
     const bool used = (field_for(sn) && (lt == "isobaricInhPa" || lt == "isobaricInPa")) ||
-                      (sn == "tcc" && cloud_layer_for(lt)) || ecmwf_cloud_layer(sn, lt) || orography_field(sn, lt);
+                      (sn == "tcc" && cloud_layer_for(lt)) || ecmwf_cloud_layer(sn, lt) || orography_field(sn, lt) ||
+                      surface_field_for(sn, lt);
     if (!used) ++skipped[sn + "/" + lt], ++inv.unused_fields;
   });
   inv.messages = static_cast<int>(offsets.size());

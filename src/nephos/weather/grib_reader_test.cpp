@@ -360,8 +360,40 @@ TEST(MultiFieldGrib, RereadingGivesTheSameFields) {
     const WeatherGrid a = open_weather(multi);
     EXPECT_TRUE(a.has(Field::u_wind, 0) && a.has(Field::v_wind, 0)) << "round " << round;
     EXPECT_EQ(inventory_grib(multi).fields, 3) << "round " << round;
-    EXPECT_EQ(inventory_grib(single).fields, 179) << "round " << round;
+    EXPECT_EQ(inventory_grib(single).fields, 203) << "round " << round;
   }
+}
+
+// The embedded sample's single-level fields, read with their units, against what is known of
+// the Earth independently of GFS: land covers 29 % of the surface, and the global mean
+// outgoing long-wave flux is ~239 W m-2 (Trenberth, Fasullo & Kiehl 2009, Fig. 1); one
+// 6-hour January mean lies within ~15 W m-2 of the annual mean.
+TEST(EmbeddedSample, CarriesTheSurfaceAndTopOfAtmosphereFields) {
+  const WeatherGrid w =
+      open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  for (const auto& si : all_surface_fields())
+    EXPECT_TRUE(w.has(si.field)) << si.grib_short_name << "@" << si.grib_level_type;
+  EXPECT_TRUE(w.has(Field::ozone));
+  const LatLonGrid& g = w.grid();
+  auto mean = [&](SurfaceField f) {
+    double sum = 0, area = 0;
+    for (int j = 0; j < g.nlat; ++j)
+      for (int i = 0; i < g.nlon; ++i) {
+        const double a = g.cell_area_fraction(j);
+        sum += a * w.surface(f)[static_cast<std::size_t>(j) * g.nlon + i], area += a;
+      }
+    return sum / area;
+  };
+  EXPECT_NEAR(mean(SurfaceField::land_fraction), 0.29, 0.03);  // 2.5 deg cells blur coasts
+  EXPECT_NEAR(mean(SurfaceField::toa_outgoing_longwave), 239, 15);
+  const auto& al = w.surface(SurfaceField::surface_albedo);
+  const auto& ts = w.surface(SurfaceField::skin_temperature);
+  // Percent scaled to a fraction; 0 where the Sun stayed below the horizon for the 6 hours.
+  EXPECT_GE(*std::min_element(al.begin(), al.end()), 0.0f);
+  EXPECT_LT(*std::max_element(al.begin(), al.end()), 1.0f);
+  EXPECT_GT(*std::max_element(al.begin(), al.end()), 0.5f);  // snow and ice
+  EXPECT_GT(*std::min_element(ts.begin(), ts.end()), 180.0f);
+  EXPECT_LT(*std::max_element(ts.begin(), ts.end()), 340.0f);
 }
 
 }  // namespace

@@ -64,6 +64,11 @@ std::string describe_weather_file(const std::filesystem::path& path) {
     }
   out += any ? "\n" : " none\n";
   out += fmt::format("orography      {}\n", w.has_orography() ? "present" : "absent (the ground is taken at 0 m)");
+  std::vector<std::string> single;
+  for (const auto& si : all_surface_fields())
+    if (w.has(si.field)) single.push_back(fmt::format("{}@{}", si.grib_short_name, si.grib_level_type));
+  out += fmt::format("single-level   {}\n",
+                     single.empty() ? std::string("none") : fmt::format("{}", fmt::join(single, " ")));
   out += "capabilities:\n";
   out += fmt::format("  weather masks (nephos masks)            {}\n", capability(missing_for_masks(w)));
   std::vector<std::string> cw;

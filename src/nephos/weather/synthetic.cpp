@@ -52,7 +52,8 @@ WeatherGrid make_synthetic_weather(const SyntheticWeatherParams& p) {
   const int nk = w.level_count();
   std::vector<float*> slab(static_cast<std::size_t>(field_count * nk));
   for (int f = 0; f < field_count; ++f)
-    for (int k = 0; k < nk; ++k) slab[static_cast<std::size_t>(f * nk + k)] = w.level_data(static_cast<Field>(f), k);
+    if (static_cast<Field>(f) != Field::ozone)  // the synthetic weather has no ozone
+      for (int k = 0; k < nk; ++k) slab[static_cast<std::size_t>(f * nk + k)] = w.level_data(static_cast<Field>(f), k);
   auto at = [&](Field f, int k) { return slab[static_cast<std::size_t>(static_cast<int>(f) * nk + k)]; };
 
 #pragma omp parallel for

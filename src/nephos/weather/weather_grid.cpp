@@ -22,11 +22,42 @@ const std::array<FieldInfo, field_count>& all_fields() {
       {Field::u_wind, "u", "m s-1", "eastward wind", true},
       {Field::v_wind, "v", "m s-1", "northward wind", true},
       {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate (liquid + ice) mixing ratio", false},
+      {Field::ozone, "o3mr", "kg kg-1", "ozone mixing ratio", false},
   }};
   return table;
 }
 
 const FieldInfo& info(Field f) { return all_fields()[static_cast<std::size_t>(f)]; }
+
+const std::array<SurfaceFieldInfo, surface_field_count>& all_surface_fields() {
+  using S = SurfaceField;
+  static const std::array<SurfaceFieldInfo, surface_field_count> table{{
+      {S::land_fraction, "lsm", "surface", "1", 1.0f, "land fraction"},
+      {S::sea_ice_fraction, "ci", "surface", "1", 1.0f, "sea-ice fraction"},
+      {S::snow_water_equivalent, "sdwe", "surface", "kg m-2", 1.0f, "snow water equivalent"},
+      {S::skin_temperature, "t", "surface", "K", 1.0f, "skin temperature"},
+      {S::surface_albedo, "al", "surface", "1", 0.01f, "surface albedo (6-hour mean)"},
+      {S::u10, "10u", "heightAboveGround", "m s-1", 1.0f, "eastward wind at 10 m"},
+      {S::v10, "10v", "heightAboveGround", "m s-1", 1.0f, "northward wind at 10 m"},
+      {S::surface_pressure, "sp", "surface", "Pa", 1.0f, "surface pressure"},
+      {S::precipitable_water, "pwat", "atmosphereSingleLayer", "kg m-2", 1.0f, "precipitable water"},
+      {S::total_ozone, "tozne", "atmosphereSingleLayer", "DU", 1.0f, "total column ozone"},
+      {S::tropopause_pressure, "trpp", "tropopause", "Pa", 1.0f, "tropopause pressure"},
+      {S::tropopause_temperature, "t", "tropopause", "K", 1.0f, "tropopause temperature"},
+      {S::low_cloud_top_pressure, "pres", "lowCloudTop", "Pa", 1.0f, "low cloud top pressure (6-hour mean)"},
+      {S::middle_cloud_top_pressure, "pres", "middleCloudTop", "Pa", 1.0f, "middle cloud top pressure (6-hour mean)"},
+      {S::high_cloud_top_pressure, "pres", "highCloudTop", "Pa", 1.0f, "high cloud top pressure (6-hour mean)"},
+      {S::convective_cloud_top_pressure, "pres", "convectiveCloudTop", "Pa", 1.0f, "convective cloud top pressure"},
+      {S::high_cloud_top_temperature, "t", "highCloudTop", "K", 1.0f, "high cloud top temperature (6-hour mean)"},
+      {S::toa_outgoing_longwave, "ulwrf", "nominalTop", "W m-2", 1.0f,
+       "outgoing long-wave flux at the top of the atmosphere (6-hour mean)"},
+      {S::toa_outgoing_shortwave, "uswrf", "nominalTop", "W m-2", 1.0f,
+       "outgoing short-wave flux at the top of the atmosphere (6-hour mean)"},
+  }};
+  return table;
+}
+
+const SurfaceFieldInfo& info(SurfaceField f) { return all_surface_fields()[static_cast<std::size_t>(f)]; }
 
 const char* name(CloudLayer layer) {
   static const char* names[] = {"low", "middle", "high", "convective", "boundary_layer", "total"};

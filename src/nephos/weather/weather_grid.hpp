@@ -23,8 +23,17 @@
 namespace nephos::weather {
 
 /// The 3D fields nephos reads. Order is stable (used as an index).
-enum class Field : int { geopotential_height, temperature, relative_humidity, omega, u_wind, v_wind, cloud_water };
-inline constexpr int field_count = 7;
+enum class Field : int {
+  geopotential_height,
+  temperature,
+  relative_humidity,
+  omega,
+  u_wind,
+  v_wind,
+  cloud_water,
+  ozone
+};
+inline constexpr int field_count = 8;
 
 struct FieldInfo {
   Field field;
@@ -35,6 +44,42 @@ struct FieldInfo {
 };
 const FieldInfo& info(Field f);
 const std::array<FieldInfo, field_count>& all_fields();
+
+/// Single-level fields: the surface, the whole column, the tropopause, GFS's diagnosed cloud
+/// tops and its top-of-atmosphere fluxes. Order is stable (used as an index).
+enum class SurfaceField : int {
+  land_fraction,                  ///< lsm [fraction]
+  sea_ice_fraction,               ///< ci [fraction]
+  snow_water_equivalent,          ///< sdwe [kg m-2]
+  skin_temperature,               ///< t at the surface [K]
+  surface_albedo,                 ///< al [fraction], GFS's broadband albedo (a 6-hour mean)
+  u10,                            ///< 10u [m s-1], eastward wind 10 m above the ground
+  v10,                            ///< 10v [m s-1]
+  surface_pressure,               ///< sp [Pa]
+  precipitable_water,             ///< pwat [kg m-2]
+  total_ozone,                    ///< tozne [Dobson units]
+  tropopause_pressure,            ///< trpp [Pa]
+  tropopause_temperature,         ///< t at the tropopause [K]
+  low_cloud_top_pressure,         ///< pres at lowCloudTop [Pa] (6-hour mean)
+  middle_cloud_top_pressure,      ///< pres at middleCloudTop [Pa]
+  high_cloud_top_pressure,        ///< pres at highCloudTop [Pa]
+  convective_cloud_top_pressure,  ///< pres at convectiveCloudTop [Pa]
+  high_cloud_top_temperature,     ///< t at highCloudTop [K]
+  toa_outgoing_longwave,          ///< ulwrf at nominalTop [W m-2], a 6-hour mean from GFS's radiation
+  toa_outgoing_shortwave,         ///< uswrf at nominalTop [W m-2], a 6-hour mean
+};
+inline constexpr int surface_field_count = 19;
+
+struct SurfaceFieldInfo {
+  SurfaceField field;
+  const char* grib_short_name;  ///< ecCodes shortName
+  const char* grib_level_type;  ///< ecCodes typeOfLevel
+  const char* units;            ///< units as stored in WeatherGrid
+  float scale;                  ///< GRIB unit -> stored unit
+  const char* long_name;
+};
+const SurfaceFieldInfo& info(SurfaceField f);
+const std::array<SurfaceFieldInfo, surface_field_count>& all_surface_fields();
 
 /// GFS's diagnosed cloud-cover layers (GRIB shortName tcc on the given typeOfLevel).
 enum class CloudLayer : int { low, middle, high, convective, boundary_layer, total };
@@ -99,6 +144,10 @@ class WeatherGrid {
   bool has_orography() const { return !orography_m_.empty(); }
   const std::vector<float>& orography_m() const { return orography_m_; }
   std::vector<float>& orography_m_mut() { return orography_m_; }
+  /// Single-level fields (nlat*nlon, grid order), empty where the file lacks them.
+  bool has(SurfaceField f) const { return !surface_[static_cast<std::size_t>(f)].empty(); }
+  const std::vector<float>& surface(SurfaceField f) const { return surface_[static_cast<std::size_t>(f)]; }
+  std::vector<float>& surface_mut(SurfaceField f) { return surface_[static_cast<std::size_t>(f)]; }
 
   std::size_t index(int k, int j, int i) const {
     return (static_cast<std::size_t>(k) * grid_.nlat + static_cast<std::size_t>(j)) * grid_.nlon +
@@ -114,6 +163,7 @@ class WeatherGrid {
   std::array<std::vector<bool>, field_count> present_;
   std::array<std::vector<float>, cloud_layer_count> cloud_cover_;
   std::vector<float> orography_m_;
+  std::array<std::vector<float>, surface_field_count> surface_;
 };
 
 /// Bilinear value of a 2D field (nlat*nlon, grid order) at (lat, lon) [deg]; longitudes wrap on

@@ -1,0 +1,28 @@
+# Writes OUT, a C++ source defining a published data table from a CSV file (lines starting with
+# '#' are its citation and are skipped): `extern const double NAME[]` (row-major) and
+# `extern const std::size_t NAME_rows, NAME_cols` in namespace NS. Run with cmake -P:
+#   -DIN=table.csv -DOUT=table.cpp -DNAME=identifier -DNS=nephos::optics::data
+file(STRINGS "${IN}" lines)
+set(values "")
+set(rows 0)
+set(cols 0)
+foreach(line IN LISTS lines)
+  if(line MATCHES "^#" OR line STREQUAL "")
+    continue()
+  endif()
+  string(REPLACE "," ";" fields "${line}")
+  list(LENGTH fields n)
+  if(cols EQUAL 0)
+    set(cols ${n})
+  elseif(NOT n EQUAL cols)
+    message(FATAL_ERROR "${IN}: row ${rows} has ${n} columns, expected ${cols}")
+  endif()
+  string(REPLACE ";" "," fields "${fields}")
+  string(APPEND values "${fields},\n")
+  math(EXPR rows "${rows} + 1")
+endforeach()
+set(code "// Generated from ${IN} by cmake/embed_table.cmake; edit the CSV file.\n#include <cstddef>\nnamespace ${NS} {\n")
+string(APPEND code "extern const double ${NAME}[];\nextern const std::size_t ${NAME}_rows, ${NAME}_cols;\n")
+string(APPEND code "const double ${NAME}[] = {\n${values}};\nconst std::size_t ${NAME}_rows = ${rows}, ${NAME}_cols = ${cols};\n}\n")
+file(WRITE "${OUT}.tmp" "${code}")
+file(RENAME "${OUT}.tmp" "${OUT}")
