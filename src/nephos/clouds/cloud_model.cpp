@@ -33,24 +33,28 @@ CloudModelParams::CloudModelParams() {
   st.fractals = {{{0.55, 60e3, 8}, {0.20, 6e3, 8}, {0.25, 40e3, 8}}};
   st.altitude_length_bottom_m = 300, st.altitude_length_top_m = 300;
   st.phase = Phase::water, st.water_content_g_m3 = 0.4, st.effective_radius_um = 8.15;  // "Stratus": D 16.3 um
+  st.asymmetry = 0.86;  // droplets in the visible (Hansen & Travis 1974, Fig. 12)
 
   auto& cu = (*this)[CloudType::low_cumulus];
   cu.shell_bottom_m = 0, cu.shell_top_m = 6000, cu.wind_altitude_m = 2000;
   cu.fractals = {{{0.35, 30e3, 6}, {0.25, 3e3, 6}, {0.40, 15e3, 6}}};
   cu.altitude_length_bottom_m = 150, cu.altitude_length_top_m = 1200;                   // flat bases, towering tops
   cu.phase = Phase::water, cu.water_content_g_m3 = 0.38, cu.effective_radius_um = 4.3;  // "Stratocumulus" mid-range
+  cu.asymmetry = 0.86;
 
   auto& as = (*this)[CloudType::altostratus];
   as.shell_bottom_m = 6000, as.shell_top_m = 10000, as.wind_altitude_m = 6000;
   as.fractals = {{{0.60, 80e3, 10}, {0.20, 8e3, 10}, {0.20, 50e3, 10}}};
   as.altitude_length_bottom_m = 500, as.altitude_length_top_m = 500;
   as.phase = Phase::water, as.water_content_g_m3 = 0.29, as.effective_radius_um = 7.6;  // "Maritime stratus": D 15.2 um
+  as.asymmetry = 0.86;
 
   auto& ci = (*this)[CloudType::cirrus];
   ci.shell_bottom_m = 6500, ci.shell_top_m = 10000, ci.wind_altitude_m = 6000;
   ci.fractals = {{{0.50, 120e3, 12}, {0.30, 10e3, 12}, {0.20, 60e3, 12}}};
   ci.altitude_length_bottom_m = 600, ci.altitude_length_top_m = 600;
   ci.phase = Phase::ice, ci.water_content_g_m3 = 0.01, ci.effective_radius_um = 45;  // D 90 um, 0.01 g/m3
+  ci.asymmetry = 0.77;  // ice crystals (Key, Yang, Baum & Nasiri 2002: 0.75-0.80 in the visible)
 }
 
 void CloudModelParams::set_texture_size(int n, const std::string& key) {

@@ -11,10 +11,14 @@
 #include <memory>
 #include <mutex>
 
+#include "nephos/atmosphere/rayleigh.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/core/progress.hpp"
+#include "nephos/render/earth_view.hpp"
+#include "nephos/render/radiometry.hpp"
+#include "nephos/surface/surface.hpp"
 
 namespace nephos::render {
 namespace {
@@ -432,7 +436,7 @@ struct SubPixel {
 };
 
 // What every stage of render_at() reads: the scene, the sensor and the Sun, the parameters, the
-// bands, each cloud type's optics per band and the thermal background.
+// bands, the atmosphere and ground (EarthView) and each cloud type's default optics per band.
 struct RenderContext {
   const clouds::CloudScene& scene;
   const Sensor& sensor;
@@ -440,36 +444,66 @@ struct RenderContext {
   const weather::WeatherGrid* weather;
   const BandTables& tables;
   const SubPixel& sub;
+  const EarthView& earth;
   earth::Vec3 sun_dir;
-  double sun_scale = 1;                                       ///< (1 AU / Sun distance)^2
-  std::vector<std::vector<optics::OpticalProperties>> props;  ///< [type][band]
-  std::vector<optics::OpticalProperties> vis_props;           ///< [type], for the optical depth
-  std::vector<double> asymmetry;                              ///< [type]
-  std::vector<float> surface_t;                               ///< the weather's lowest-level temperature [K], or empty
+  double sun_scale = 1;                              ///< (1 AU / Sun distance)^2
+  std::vector<optics::OpticalProperties> vis_props;  ///< [type], the types' own, for the optical depth
+  std::vector<double> asymmetry;                     ///< [type], the types' own (0: by phase)
 
   RenderContext(const clouds::CloudScene& scene_, const Sensor& sensor_, const earth::SunPosition& sun,
                 const RenderParams& params_, const weather::WeatherGrid* weather_, const BandTables& tables_,
-                const SubPixel& sub_)
-      : scene(scene_), sensor(sensor_), params(params_), weather(weather_), tables(tables_), sub(sub_) {
+                const SubPixel& sub_, const EarthView& earth_)
+      : scene(scene_), sensor(sensor_), params(params_), weather(weather_), tables(tables_), sub(sub_), earth(earth_) {
     sun_dir = sun.direction_ecef;
     sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
-    // Thermal background: the temperature of the weather's lowest level (1000 hPa for GFS).
-    if (weather && weather->has(weather::Field::temperature, 0))
-      surface_t.assign(weather->level_data(weather::Field::temperature, 0),
-                       weather->level_data(weather::Field::temperature, 0) + weather->grid().size());
     const std::size_t ns = scene.shells.size();
-    props.resize(ns), vis_props.resize(ns), asymmetry.resize(ns);
+    vis_props.resize(ns), asymmetry.resize(ns);
     for (std::size_t si = 0; si < ns; ++si) {
       const clouds::CloudTypeParams& cp = scene.shells[si].params();
       asymmetry[si] = cp.asymmetry;
-      for (const auto* b : tables.bands)
-        props[si].push_back(optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *b));
       vis_props[si] =
           optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
     }
   }
   std::size_t band_count() const { return tables.bands.size(); }
+  /// Sunlight in band b at 1 AU scaled to the Sun's distance [W m^-2 um^-1, normal to the beam].
+  double solar_irradiance(std::size_t b) const { return tables.bands[b]->solar_irradiance * sun_scale; }
+  static bool solar(const optics::Band& b) { return b.abi_band <= 7; }
 };
+
+// A cloud element's microphysics: phase, water content [g m^-3] and effective radius [um].
+struct Microphysics {
+  optics::Phase phase;
+  double water_content_g_m3, effective_radius_um;
+};
+
+// From the weather where it has condensate: in-cloud water content is GFS's grid-mean condensate
+// over the cloud's share of the cell (the mask, calibrated to cloud cover), phase from the
+// temperature (ice below -15 C), effective radius from the water content for droplets (Martin,
+// Johnson & Spice 1994: r_e = (3 W / (4 pi rho_w k N))^(1/3), N = 100 cm^-3 and k = 0.8 over
+// sea, 300 cm^-3 and 0.67 over land) and from the temperature for ice (Ou & Liou 1995:
+// D_e = 326.3 + 12.42 T + 0.197 T^2 + 0.0012 T^3 um, T in C, -60..-20 C). Else the type's own.
+Microphysics microphysics(const RenderContext& c, std::size_t si, double lat, double lon, double alt,
+                          const earth::Vec3& p, double t_cloud) {
+  const clouds::CloudTypeParams& cp = c.scene.shells[si].params();
+  Microphysics m{cp.phase, cp.water_content_g_m3, cp.effective_radius_um};
+  if (!c.weather) return m;
+  m.phase = t_cloud < 258.15 ? optics::Phase::ice : optics::Phase::water;
+  if (c.earth.has_condensate()) {
+    const double q = c.earth.condensate_g_m3(lat, lon, alt);
+    if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / std::max(c.scene.shells[si].mask_at(p), 0.1), 0.01, 3.0);
+  }
+  if (m.phase == optics::Phase::water) {
+    const double land = c.earth.ground(lat, lon).share[1];
+    const double n_m3 = (100 + 200 * land) * 1e6, k = 0.8 - 0.13 * land;
+    const double r_m = std::cbrt(3 * m.water_content_g_m3 * 1e-3 / (4 * M_PI * 1000 * k * n_m3));
+    m.effective_radius_um = std::clamp(r_m * 1e6, 4.0, 25.0);
+  } else {
+    const double tc = std::clamp(t_cloud - 273.15, -60.0, -20.0);
+    m.effective_radius_um = 0.5 * (326.3 + 12.42 * tc + 0.197 * tc * tc + 0.0012 * tc * tc * tc);
+  }
+  return m;
+}
 
 // The per-type layers of one band of image rows [y0, y1), and each row's distance to the Earth.
 // The image is rendered in bands of rows whose per-type layers (12 + 8 nb B per pixel and type:
@@ -518,9 +552,29 @@ void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
   }
 }
 
+// Sunlight arriving at a point per band [W m^-2 um^-1]: the direct beam normal to itself and the
+// diffuse skylight on a level surface, through the air above (gases, Rayleigh).
+struct Sunlight {
+  std::array<double, optics::max_band_count> direct{}, sky{};
+};
+Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun) {
+  Sunlight s;
+  if (mu_sun <= 0) return s;
+  for (std::size_t b = 0; b < c.band_count(); ++b) {
+    if (!RenderContext::solar(*c.tables.bands[b])) continue;
+    const double e0 = c.solar_irradiance(b) * air.t_sun[b];
+    const double direct = std::exp(-air.tau_rayleigh[b] / mu_sun);
+    s.direct[b] = e0 * direct;
+    s.sky[b] = e0 * mu_sun * (rayleigh_down(air.tau_rayleigh[b], mu_sun) - direct);
+  }
+  return s;
+}
+
 // One cloud type's layer at a hit: distance, altitude, visible optical depth, and per band the
-// radiance leaving it towards the sensor and the transmittance of what lies behind.
-void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, Layer& L, float* lb) {
+// radiance leaving it that reaches the sensor through the clear air above, and the transmittance
+// of what lies behind (a plane-parallel slab of the same vertical optical depth).
+void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, const earth::Vec3& dir, Layer& L,
+               float* lb) {
   const std::size_t nb = c.band_count();
   const double f_ind = c.params.indirect_fraction;
   L.t = static_cast<float>(hit.t);
@@ -528,27 +582,33 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, Laye
   const earth::Vec3 up = hit.position / r;
   L.altitude = static_cast<float>(r - earth::radius_m);
   L.tau_vis = static_cast<float>(c.vis_props[si].extinction_per_m * hit.depth_m);
-  const double mu_sun_local = glm::dot(c.sun_dir, up);  // sine of the Sun's elevation here
-  const double mu0 = glm::dot(hit.normal, c.sun_dir);
-  const double t_cloud = optics::standard_atmosphere_temperature_k(L.altitude);
+  const earth::Geodetic g = earth::geodetic(hit.position);
+  const double mu_view = std::clamp(-glm::dot(up, dir), 0.05, 1.0);
+  const double mu_sun = glm::dot(c.sun_dir, up);  // sine of the Sun's elevation here
+  const double mu_normal = glm::dot(hit.normal, c.sun_dir);
+  const double t_cloud = c.earth.temperature_k(g.lat_deg, g.lon_deg, L.altitude);
+  const Microphysics m = microphysics(c, si, g.lat_deg, g.lon_deg, L.altitude, hit.position, t_cloud);
+  // The type's asymmetry for its own phase; where the weather's temperature gives the other
+  // phase, that phase's typical value (0.86 droplets, 0.77 ice).
+  const double asym =
+      m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
+  AirSample air;
+  c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
+  const Sunlight sun = sunlight(c, air, mu_sun);
   for (std::size_t b = 0; b < nb; ++b) {
-    // The slab along the line of sight, similarity-scaled for forward scattering (g = 0: the
-    // source paper's slab, unchanged to the bit).
-    const optics::OpticalProperties& p = c.props[si][b];
-    const optics::SlabOptics so =
-        optics::similarity_scaled(p.extinction_per_m * hit.depth_m, p.single_scattering_albedo, c.asymmetry[si]);
-    const optics::SlabResult slab = optics::two_stream_slab(so.tau, so.omega);
-    const double e_sun = c.tables.bands[b]->solar_irradiance * c.sun_scale;
+    const optics::Band& band = *c.tables.bands[b];
+    const optics::OpticalProperties p =
+        optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, band);
+    const LayerOptics lo =
+        cloud_layer(p.extinction_per_m * hit.depth_m * mu_view, p.single_scattering_albedo, asym, mu_view);
     double rad = 0;
-    if (mu_sun_local > 0) {
-      rad += (1 - f_ind) * slab.reflectance * e_sun * std::max(0.0, mu0) / M_PI;  // Lambertian reflector
-      rad += f_ind * slab.reflectance * e_sun * mu_sun_local / M_PI;              // diffuse emitter
-    }
-    const double emissivity = std::max(0.0, 1.0 - slab.reflectance - slab.transmittance);
-    rad += emissivity * c.tables.planck[b]->forward(t_cloud);  // thermal emission
-    lb[b] = static_cast<float>(rad);
-    // What lies behind, seen through the forward-scattered light as well (the scaled tau).
-    lb[nb + b] = static_cast<float>(optics::beer_transmittance(so.tau));
+    if (RenderContext::solar(band) && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
+      rad += lo.reflectance / M_PI *
+             (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
+    if (band.thermal) rad += lo.emissivity * c.tables.planck[b]->forward(t_cloud);
+    const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
+    lb[b] = static_cast<float>(rad * air.t_view[b] * up_share);
+    lb[nb + b] = static_cast<float>(lo.transmittance);
   }
 }
 
@@ -574,7 +634,8 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
       for (int x = 0; x < w; ++x) {
         const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
         marched += hit.marched;
-        if (hit.hit) shade_hit(c, si, hit, rb.layer(row + x, si), rb.bands(row + x, si));
+        if (hit.hit)
+          shade_hit(c, si, hit, dirs[static_cast<std::size_t>(x)], rb.layer(row + x, si), rb.bands(row + x, si));
       }
       progress.advance();
     }
@@ -582,26 +643,81 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
   return marched;
 }
 
-// The background of a pixel whose ray meets the Earth at q: reflected sunlight from a grey
-// Lambertian surface and emission at the weather's lowest-level temperature, per band.
-void surface_background(const RenderContext& c, const earth::Vec3& q, const earth::Geodetic& g,
-                        std::array<double, optics::max_band_count>& bg) {
-  const double mu_s = std::max(0.0, glm::dot(c.sun_dir, q / glm::length(q)));
-  double t_surf = c.params.surface_temperature_k;
-  if (!c.surface_t.empty()) {
-    const float v = weather::sample_bilinear(c.weather->grid(), c.surface_t, g.lat_deg, g.lon_deg);
-    if (!std::isnan(v)) t_surf = v;
+// The air's own radiance per band between a point at altitude z and the sensor [W m^-2 sr^-1
+// um^-1]: its thermal emission and the sunlight it scatters (Rayleigh, single scattering).
+void path_radiance(const RenderContext& c, const AirSample& air, double mu_view, double mu_sun, double cos_scatter,
+                   std::array<double, optics::max_band_count>& out) {
+  for (std::size_t b = 0; b < c.band_count(); ++b) {
+    out[b] = air.path[b];
+    if (RenderContext::solar(*c.tables.bands[b]))
+      out[b] += rayleigh_path(c.solar_irradiance(b), air.tau_rayleigh[b], mu_view, mu_sun, cos_scatter) *
+                std::sqrt(air.t_view[b] * air.t_sun[b]);
   }
-  for (std::size_t b = 0; b < c.band_count(); ++b)
-    bg[b] = c.params.surface_albedo * c.tables.bands[b]->solar_irradiance * c.sun_scale * mu_s / M_PI +
-            c.tables.planck[b]->forward(t_surf);
 }
 
-// The band's rows into the image: the background, then the layers front to back.
+// The ground where a ray meets it: reflected sunlight (Lambertian albedo, and sun glint on open
+// water) and emission, as they reach the sensor, per band; and the air's radiance above it.
+void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const earth::Vec3& up, const earth::Vec3& d,
+                     std::array<double, optics::max_band_count>& out,
+                     std::array<double, optics::max_band_count>& path) {
+  const double z = c.earth.ground_height_m(g.lat_deg, g.lon_deg);
+  const surface::State ground = c.earth.ground(g.lat_deg, g.lon_deg);
+  const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
+  AirSample air;
+  c.earth.air(g.lat_deg, g.lon_deg, z, mu_view, mu_sun, air);
+  const Sunlight sun = sunlight(c, air, mu_sun);
+  path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
+  const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);
+  for (std::size_t b = 0; b < c.band_count(); ++b) {
+    const optics::Band& band = *c.tables.bands[b];
+    double rad = 0;
+    if (RenderContext::solar(band) && mu_sun > 0) {
+      const double albedo = surface::mixed_albedo(ground, band);
+      rad += (sun.direct[b] * mu_sun * (albedo + ground.share[0] * glint) + sun.sky[b] * albedo) / M_PI;
+    }
+    if (band.thermal)
+      rad += surface::mixed_emissivity(ground, band) * c.tables.planck[b]->forward(ground.skin_temperature_k);
+    const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
+    out[b] = rad * air.t_view[b] * up_share;
+  }
+}
+
+// A ray that misses the Earth: the limb's haze and emission where it passes through the air
+// (tangent height below 100 km), black space beyond. The air along the tangent path is that of
+// the column at the tangent point, its vertical amounts times the Chapman grazing factor.
+void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<double, optics::max_band_count>& out) {
+  out.fill(0.0);
+  if (!c.earth.atmosphere()) return;
+  const earth::Vec3& o = c.sensor.position;
+  const double t_tangent = -glm::dot(o, d);
+  const earth::Vec3 tangent = t_tangent > 0 ? o + t_tangent * d : o;
+  const double h = glm::length(tangent) - earth::radius_m;
+  if (h > 100e3) return;
+  const earth::Vec3 up = glm::normalize(tangent);
+  const earth::Geodetic g = earth::geodetic(tangent);
+  const double mu_sun = glm::dot(c.sun_dir, up);
+  AirSample air;
+  c.earth.air(g.lat_deg, g.lon_deg, h, 1.0, std::max(mu_sun, 0.02), air);
+  const double m = t_tangent > 0 ? 2 * grazing_air_mass(h) : atmosphere::air_mass(std::max(glm::dot(up, d), 0.0));
+  const double t_air = c.earth.temperature_k(g.lat_deg, g.lon_deg, h);
+  for (std::size_t b = 0; b < c.band_count(); ++b) {
+    const optics::Band& band = *c.tables.bands[b];
+    if (band.thermal) out[b] += c.tables.planck[b]->forward(t_air) * (1 - std::pow(std::max(air.t_view[b], 1e-30f), m));
+    if (RenderContext::solar(band) && mu_sun > -0.1) {
+      const double e0 =
+          c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
+      out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
+                (1 - std::exp(-air.tau_rayleigh[b] * m));
+    }
+  }
+}
+
+// The band's rows into the image: from the sensor down, each cloud layer's radiance and the air's
+// between the layers, seen through the layers in front; then the ground or the sky behind.
 void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
   const int w = c.sensor.width;
   const std::size_t ns = rb.ns, nb = c.band_count();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 4)
   for (int y = rb.y0; y < rb.y1; ++y) {
     std::vector<std::size_t> order(ns);
     std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
@@ -610,40 +726,55 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
       const std::size_t px = static_cast<std::size_t>(y) * w + x;
       const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;  // within the band
       const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
-      std::array<double, optics::max_band_count> bg{};
-      if (std::isfinite(rb.t_earth[bpx])) {
-        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
-        const earth::Geodetic g = earth::geodetic(q);
-        img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-        img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-        surface_background(c, q, g, bg);
-      }
       const Layer* pl = &rb.layer(bpx, 0);
       for (std::size_t s = 0; s < ns; ++s) order[s] = s;
       std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
-      std::array<double, optics::max_band_count> rad{}, trans;
+      std::array<double, optics::max_band_count> rad{}, trans, path_above{}, path{};
       trans.fill(1.0);
       float tau = 0;
       for (std::size_t s = 0; s < ns; ++s) {
         const Layer& L = pl[order[s]];
         const float* const lb = rb.bands(bpx, order[s]);
         if (!std::isfinite(L.t)) break;
+        const earth::Vec3 p = c.sensor.position + static_cast<double>(L.t) * d;
+        const earth::Geodetic g = earth::geodetic(p);
         if (s == 0) {
           img.cloud_fraction[px] = 1;
           img.cloud_top_altitude_m[px] = L.altitude;
           img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
-          const earth::Geodetic g = earth::geodetic(c.sensor.position + static_cast<double>(L.t) * d);
           img.latitude_deg[px] = static_cast<float>(g.lat_deg);
           img.longitude_deg[px] = static_cast<float>(g.lon_deg);
         }
+        if (c.earth.atmosphere()) {
+          const earth::Vec3 up = glm::normalize(p);
+          const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
+          AirSample air;
+          c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
+          path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
+        }
         tau += L.tau_vis;
         for (std::size_t b = 0; b < nb; ++b) {
-          rad[b] += trans[b] * lb[b];
+          rad[b] += trans[b] * (std::max(0.0, path[b] - path_above[b]) + lb[b]);
           trans[b] *= lb[nb + b];
+          path_above[b] = path[b];
         }
       }
+      std::array<double, optics::max_band_count> bg{}, bg_path{};
+      if (std::isfinite(rb.t_earth[bpx])) {
+        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
+        const earth::Geodetic g = earth::geodetic(q);
+        if (!(img.cloud_fraction[px] > 0)) {
+          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+        }
+        ground_radiance(c, g, q / glm::length(q), d, bg, bg_path);
+      } else {
+        sky_radiance(c, d, bg);
+      }
       img.cloud_optical_depth[px] = tau;
-      for (std::size_t b = 0; b < nb; ++b) img.radiance[b][px] = static_cast<float>(rad[b] + trans[b] * bg[b]);
+      for (std::size_t b = 0; b < nb; ++b)
+        img.radiance[b][px] =
+            static_cast<float>(rad[b] + trans[b] * (std::max(0.0, bg_path[b] - path_above[b]) + bg[b]));
     }
   }
 }
@@ -670,8 +801,8 @@ RenderImage blank_image(int w, int h, const std::vector<std::string>& bands) {
 // brightness temperatures (render() converts the final radiances).
 RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                       const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
-                      const SubPixel& sub, Progress& progress) {
-  const RenderContext c(scene, sensor, sun, params, weather, tables, sub);
+                      const SubPixel& sub, const EarthView& earth_view, Progress& progress) {
+  const RenderContext c(scene, sensor, sun, params, weather, tables, sub, earth_view);
   RenderImage img = blank_image(sensor.width, sensor.height, params.bands);
   const std::size_t ns = scene.shells.size();
   std::vector<double> seconds(ns, 0.0);
@@ -766,8 +897,10 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   Progress progress("render", static_cast<std::size_t>(sensor.height) * scene.shells.size() *
                                   static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
   const BandTables tables(params.bands);
+  const EarthView earth_view(weather, sensor, sun, tables.bands, params.atmosphere, params.surface_temperature_k);
   if (k == 1) {
-    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, progress);
+    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view, progress);
+    img.seconds_atmosphere = earth_view.seconds_to_build();
     add_brightness_temperatures(img, tables);
     return img;
   }
@@ -783,8 +916,9 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const int centre = k / 2;  // the sub-pixel nearest the centre (the centre for odd k)
   for (int j = 0; j < k; ++j)
     for (int i = 0; i < k; ++i) {
-      RenderImage sub = render_at(scene, sensor, sun, params, weather, tables,
-                                  SubPixel{i, j, k, params.stratified_samples, params.sample_seed}, progress);
+      RenderImage sub =
+          render_at(scene, sensor, sun, params, weather, tables,
+                    SubPixel{i, j, k, params.stratified_samples, params.sample_seed}, earth_view, progress);
 #pragma omp parallel for schedule(static)
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
@@ -811,6 +945,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       }
     }
   const double inv_n = 1.0 / (k * k);
+  img.seconds_atmosphere = earth_view.seconds_to_build();
   img.width = sensor.width;
   img.height = sensor.height;
   img.bands = params.bands;

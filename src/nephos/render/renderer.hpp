@@ -23,8 +23,13 @@ struct RenderParams {
   int steps = 25;                         ///< ray-marching steps through a shell (--steps)
   int bisection_iterations = 7;           ///< at most this many halvings of the first crossing (step / 128)
   double indirect_fraction = 0.3;         ///< share of scattered sunlight re-emitted diffusely by all facets
-  double surface_albedo = 0.06;           ///< Lambertian albedo of the ground in solar bands (dark ocean)
-  double surface_temperature_k = 288.15;  ///< used where the weather gives none
+  double surface_temperature_k = 288.15;  ///< the ground's temperature without weather (open sea)
+  /// The atmosphere between the scene and the sensor: gases, Rayleigh scattering and the air's
+  /// emission (atmosphere::clear_sky_column per weather node). false: a vacuum, for comparison.
+  bool atmosphere = true;
+  /// Direct sunlight attenuated through the cloud shells on its way to the ground and to lower
+  /// clouds. false (--no-shadows): every point lit as if no cloud stood between it and the Sun.
+  bool shadows = true;
   /// k: each pixel is sampled on a k x k grid of sub-pixel rays (--samples k^2, 1..16 per
   /// axis) and its radiance is their mean, the detector's integral over its footprint.
   int samples_per_axis = 1;
@@ -65,6 +70,7 @@ struct RenderImage {
   /// the shell the empty-space skip left possible cloud on (all sub-pixel rays counted). A
   /// shell's time follows this count, not the field of view (bench render).
   std::vector<std::uint64_t> marched_rays_per_type;
+  double seconds_atmosphere = 0;  ///< building the atmosphere's and ground's tables for this sensor and Sun
 };
 
 /// What one ray finds in one shell.

@@ -1,0 +1,164 @@
+#include "nephos/atmosphere/clear_sky.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "nephos/atmosphere/band_model.hpp"
+#include "nephos/atmosphere/rayleigh.hpp"
+#include "nephos/earth/earth.hpp"
+
+namespace nephos::atmosphere {
+namespace {
+constexpr double m_air = 28.9644e-3, m_h2o = 18.01528e-3;  // [kg mol^-1]
+constexpr double avogadro = 6.02214076e23, boltzmann = 1.380649e-23;
+constexpr double atm_cm_m2 = 2.6867811e23;                  // molecules m^-2 in one atm-cm
+constexpr double rho0_cm3 = 2.6867811e19 * 273.15 / 296.0;  // CKD reference density [cm^-3]
+constexpr double c2_cm_k = 1.438776877;                     // hc/k [cm K]
+constexpr double p0 = 101325.0, t0 = 273.15;
+
+// One layer's optics per sub-band: scaled amounts per gas and the continuum optical depth.
+struct LayerOptics {
+  std::array<double, gas_count> w{};  // scaled amounts
+  double tau_cont = 0;                // vertical continuum (+ N2, + Chappuis) optical depth
+  double t_mean = 0;                  // layer-mean temperature [K]
+};
+
+// The amounts of the layer between levels a (below) and b, in sub-band s.
+LayerOptics layer_optics(const Profile& p, std::size_t a, std::size_t b, const SubBand& s) {
+  LayerOptics l;
+  const double dp = std::max(0.0, p.p_pa[a] - p.p_pa[b]);
+  const double pm = 0.5 * (p.p_pa[a] + p.p_pa[b]), tm = 0.5 * (p.t_k[a] + p.t_k[b]);
+  const double h2o = 0.5 * (p.h2o_vmr[a] + p.h2o_vmr[b]), o3 = 0.5 * (p.o3_vmr[a] + p.o3_vmr[b]);
+  l.t_mean = tm;
+  const double molecules_m2 = dp * avogadro / (earth::g0_m_s2 * m_air);  // air in the layer
+  const double eps = m_h2o / m_air;
+  const double q = eps * h2o / (1 - (1 - eps) * h2o);
+  std::array<double, gas_count> u{};
+  u[static_cast<std::size_t>(Gas::h2o)] = q * dp / earth::g0_m_s2 * 0.1;  // kg m^-2 -> g cm^-2
+  u[static_cast<std::size_t>(Gas::co2)] = co2_vmr * molecules_m2 / atm_cm_m2;
+  u[static_cast<std::size_t>(Gas::o3)] = o3 * molecules_m2 / atm_cm_m2;
+  u[static_cast<std::size_t>(Gas::n2o)] = n2o_vmr * molecules_m2 / atm_cm_m2;
+  u[static_cast<std::size_t>(Gas::ch4)] = ch4_vmr * molecules_m2 / atm_cm_m2;
+  u[static_cast<std::size_t>(Gas::o2)] = o2_vmr * molecules_m2 / atm_cm_m2;
+  for (std::size_t g = 0; g < gas_count; ++g)
+    if (s.gas[g].n > 0) l.w[g] = u[g] * std::pow(pm / p0, s.n[g]) * std::pow(t0 / tm, s.m[g]);
+  // Water-vapour continuum (CKD): tau = R(nu, T) C~(nu, T) (rho / rho0) N_w, R = nu tanh(hc nu / 2kT).
+  const double nu = 1e4 / s.wavelength_um;
+  const double radiation = nu * std::tanh(c2_cm_k * nu / (2 * tm));
+  const double n_air_cm3 = pm / (boltzmann * tm) * 1e-6, n_w_cm3 = h2o * n_air_cm3;
+  const double n_w_col_cm2 = h2o * molecules_m2 * 1e-4;
+  const double self = s.self_296 > 0 && s.self_260 > 0
+                          ? s.self_296 * std::pow(s.self_260 / s.self_296, (296.0 - tm) / 36.0)
+                          : s.self_296;
+  l.tau_cont = radiation * 1e-20 * (self * n_w_cm3 + s.foreign_296 * (n_air_cm3 - n_w_cm3)) / rho0_cm3 * n_w_col_cm2;
+  // N2 collision-induced absorption (per km of air scaled to 0.781 (P/P0)^2 (T0/T)^1.5).
+  if (s.n2_per_km > 0) {
+    const double dz_km = 287.05 * tm / earth::g0_m_s2 * std::log(p.p_pa[a] / p.p_pa[b]) * 1e-3;
+    l.tau_cont += s.n2_per_km * 0.781 * std::pow(pm / p0, 2) * std::pow(t0 / tm, 1.5) * dz_km;
+  }
+  l.tau_cont += s.o3_visible * u[static_cast<std::size_t>(Gas::o3)];  // Chappuis
+  return l;
+}
+
+// The profile cut at the sensor: its levels below z_s and one at z_s (interpolated).
+Profile below_sensor(const Profile& p, double z_s) {
+  if (z_s >= p.z_m.back()) return p;
+  Profile q;
+  q.skin_temperature_k = p.skin_temperature_k;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    if (p.z_m[k] < z_s) {
+      q.z_m.push_back(p.z_m[k]), q.p_pa.push_back(p.p_pa[k]), q.t_k.push_back(p.t_k[k]);
+      q.h2o_vmr.push_back(p.h2o_vmr[k]), q.o3_vmr.push_back(p.o3_vmr[k]);
+      continue;
+    }
+    if (k == 0) break;
+    const double f = (z_s - p.z_m[k - 1]) / (p.z_m[k] - p.z_m[k - 1]);
+    auto lin = [&](const std::vector<double>& v) { return v[k - 1] + f * (v[k] - v[k - 1]); };
+    q.z_m.push_back(z_s), q.t_k.push_back(lin(p.t_k));
+    q.p_pa.push_back(std::exp(std::log(p.p_pa[k - 1]) + f * (std::log(p.p_pa[k]) - std::log(p.p_pa[k - 1]))));
+    q.h2o_vmr.push_back(lin(p.h2o_vmr)), q.o3_vmr.push_back(lin(p.o3_vmr));
+    break;
+  }
+  return q;
+}
+
+// Transmittance of a path with scaled amounts w (per gas) and continuum tau, air mass m.
+double path_transmittance(const SubBand& s, const std::array<double, gas_count>& w, double tau, double m) {
+  double t = std::exp(-tau * m);
+  for (std::size_t g = 0; g < gas_count; ++g)
+    if (s.gas[g].n > 0 && w[g] > 0) t *= s.gas[g].transmittance(w[g] * m);
+  return t;
+}
+
+double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
+  // The band's mean over five wavelengths (the optical depth varies as lambda^-4 across it).
+  double sum = 0;
+  for (int i = 0; i < 5; ++i)
+    sum += rayleigh_optical_depth(b.lo_um + (i + 0.5) * (b.hi_um - b.lo_um) / 5, p_pa, lat, 0.0);
+  return sum / 5;
+}
+}  // namespace
+
+double air_mass(double mu) {
+  const double zenith_deg = std::acos(std::clamp(mu, -1.0, 1.0)) * 180 / M_PI;
+  if (zenith_deg >= 96.0) return 40.0;
+  return 1 / (std::max(mu, 0.0) + 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364));
+}
+
+ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, const ColumnGeometry& g, double lat) {
+  const Profile p = below_sensor(full, g.sensor_altitude_m);
+  ClearSkyColumn c;
+  const std::size_t nl = p.size();
+  if (nl < 2) return c;
+  c.view_air_mass = g.view_air_mass, c.sun_air_mass = g.sun_air_mass;
+  c.z_m.assign(p.z_m.begin(), p.z_m.end());
+  c.t_view.assign(nl, 0.0f), c.path_radiance.assign(nl, 0.0f), c.t_solar.assign(nl, 0.0f);
+  c.tau_rayleigh.resize(nl);
+  const double tau_r_surface = band_rayleigh_tau(b, 101325.0, lat);
+  for (std::size_t k = 0; k < nl; ++k) c.tau_rayleigh[k] = static_cast<float>(tau_r_surface * p.p_pa[k] / 101325.0);
+  const bool solar = !b.thermal || b.abi_band == 7;
+  const double m_v = g.view_air_mass, m_2 = g.view_air_mass + std::max(g.sun_air_mass, 0.0);
+  std::vector<LayerOptics> layers(nl - 1);
+  for (const SubBand& s : gas_model(b).sub) {
+    for (std::size_t k = 0; k + 1 < nl; ++k) layers[k] = layer_optics(p, k, k + 1, s);
+    // Downwards from the sensor (the top level): cumulative amounts, transmittance, emission.
+    std::array<double, gas_count> w{};
+    double tau = 0, t_above = 1, radiance = 0;
+    c.t_view[nl - 1] += static_cast<float>(s.weight);
+    c.t_solar[nl - 1] += static_cast<float>(s.weight);
+    for (std::size_t k = nl - 1; k-- > 0;) {
+      const LayerOptics& l = layers[k];
+      for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += l.w[gi];
+      tau += l.tau_cont;
+      const double t_here = path_transmittance(s, w, tau, m_v);
+      if (b.thermal) radiance += optics::planck(s.wavelength_um, l.t_mean) * (t_above - t_here);
+      t_above = t_here;
+      c.t_view[k] += static_cast<float>(s.weight * t_here);
+      c.path_radiance[k] += static_cast<float>(s.weight * radiance);
+      if (solar && g.sun_air_mass > 0)
+        c.t_solar[k] += static_cast<float>(s.weight * path_transmittance(s, w, tau, m_2));
+    }
+  }
+  return c;
+}
+
+ClearSkySample sample(const ClearSkyColumn& c, double z) {
+  ClearSkySample s;
+  if (!c.valid()) return s;
+  const std::size_t n = c.z_m.size();
+  std::size_t hi =
+      static_cast<std::size_t>(std::upper_bound(c.z_m.begin(), c.z_m.end(), static_cast<float>(z)) - c.z_m.begin());
+  hi = std::clamp<std::size_t>(hi, 1, n - 1);
+  const double f = std::clamp((z - c.z_m[hi - 1]) / (c.z_m[hi] - c.z_m[hi - 1]), 0.0, 1.0);
+  auto lin = [&](const std::vector<float>& v) { return static_cast<float>(v[hi - 1] + f * (v[hi] - v[hi - 1])); };
+  s.t_view = lin(c.t_view), s.path_radiance = lin(c.path_radiance), s.t_solar = lin(c.t_solar);
+  s.tau_rayleigh = lin(c.tau_rayleigh);
+  return s;
+}
+
+double clear_sky_radiance(const ClearSkyColumn& c, const optics::Band& b, double t_surface_k) {
+  return optics::band_planck(b, t_surface_k) * c.t_view.front() + c.path_radiance.front();
+}
+
+}  // namespace nephos::atmosphere

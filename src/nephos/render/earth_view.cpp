@@ -1,0 +1,209 @@
+#include "nephos/render/earth_view.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "nephos/atmosphere/profile.hpp"
+#include "nephos/earth/earth.hpp"
+
+namespace nephos::render {
+namespace {
+// Linear interpolation of v over ascending z at zq, clamped.
+double along(const std::vector<float>& z, const std::vector<float>& v, double zq) {
+  if (z.empty()) return 0;
+  if (zq <= z.front()) return v.front();
+  if (zq >= z.back()) return v.back();
+  const auto hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), static_cast<float>(zq)) - z.begin());
+  const double f = (zq - z[hi - 1]) / (z[hi] - z[hi - 1]);
+  return v[hi - 1] + f * (v[hi] - v[hi - 1]);
+}
+}  // namespace
+
+EarthView::EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
+                     const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k)
+    : weather_(weather),
+      bands_(bands),
+      atmosphere_(atmosphere),
+      ground_temperature_k_(ground_temperature_k),
+      sensor_position_(sensor.position),
+      sun_direction_(sun.direction_ecef) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (weather) {
+    grid_ = weather->grid();
+    has_condensate_ = weather->has(weather::Field::cloud_water);
+  } else {
+    grid_ = weather::LatLonGrid{1, 1, 0, 1, 0, 1};
+  }
+  const std::size_t n = grid_.size();
+  nodes_.resize(n);
+  columns_.assign(bands.size(), std::vector<atmosphere::ClearSkyColumn>(n));
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::size_t k = 0; k < n; ++k)
+    build_node(k, static_cast<int>(k / static_cast<std::size_t>(grid_.nlon)),
+               static_cast<int>(k % static_cast<std::size_t>(grid_.nlon)));
+  seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void EarthView::build_node(std::size_t k, int j, int i) {
+  Node& node = nodes_[k];
+  const atmosphere::Profile p = weather_ ? atmosphere::weather_profile(*weather_, j, i) : atmosphere::us_standard();
+  node.ground_height_m = static_cast<float>(p.z_m.front());
+  for (std::size_t l = 0; l < p.size(); ++l) node.z.push_back(static_cast<float>(p.z_m[l]));
+  for (std::size_t l = 0; l < p.size(); ++l) node.t.push_back(static_cast<float>(p.t_k[l]));
+  if (weather_ && has_condensate_) {
+    // Condensate at the weather's levels, in the profile's altitudes (kg kg^-1 * air density).
+    node.condensate.assign(p.size(), 0.0f);
+    const std::size_t cell =
+        static_cast<std::size_t>(j) * static_cast<std::size_t>(grid_.nlon) + static_cast<std::size_t>(i);
+    std::vector<float> zc, qc;
+    for (int lev = 0; lev < weather_->level_count(); ++lev) {
+      if (!weather_->has(weather::Field::cloud_water, lev) || !weather_->has(weather::Field::geopotential_height, lev))
+        continue;
+      const float q = weather_->level_data(weather::Field::cloud_water, lev)[cell];
+      const float gh = weather_->level_data(weather::Field::geopotential_height, lev)[cell];
+      const float t = weather_->level_data(weather::Field::temperature, lev)[cell];
+      if (std::isnan(q) || std::isnan(gh) || std::isnan(t)) continue;
+      const double rho = weather_->pressure_levels_pa()[static_cast<std::size_t>(lev)] / (287.05 * t);
+      zc.push_back(static_cast<float>(earth::geometric_from_geopotential_m(gh)));
+      qc.push_back(static_cast<float>(std::max(0.0f, q) * rho * 1000));
+    }
+    for (std::size_t l = 0; l < p.size() && zc.size() >= 2; ++l)
+      node.condensate[l] = node.z[l] > zc.back() ? 0.0f : static_cast<float>(along(zc, qc, node.z[l]));
+  }
+  // The ground.
+  if (weather_) {
+    using S = weather::SurfaceField;
+    const std::size_t cell =
+        static_cast<std::size_t>(j) * static_cast<std::size_t>(grid_.nlon) + static_cast<std::size_t>(i);
+    auto f = [&](S s, double fallback) {
+      if (!weather_->has(s)) return fallback;
+      const float v = weather_->surface(s)[cell];
+      return std::isnan(v) ? fallback : static_cast<double>(v);
+    };
+    node.ground = surface::state(f(S::land_fraction, 0), f(S::sea_ice_fraction, 0), f(S::snow_water_equivalent, 0));
+    const double al = f(S::surface_albedo, -1);
+    node.ground.broadband_albedo = al > 0 ? al : -1;  // 0: the Sun stayed down for the 6 hours
+    node.ground.wind_speed_m_s = std::hypot(f(S::u10, 5), f(S::v10, 0));
+  }
+  node.ground.skin_temperature_k = weather_ ? p.skin_temperature_k : ground_temperature_k_;
+  // The column's optics for this sensor and Sun.
+  const double lat = weather_ ? grid_.lat(j) : 0.0, lon = weather_ ? grid_.lon(i) : 0.0;
+  const earth::Vec3 up = earth::unit_from_latlon(lat, lon);
+  const earth::Vec3 ground = (earth::radius_m + node.ground_height_m) * up;
+  const double mu_v = std::max(0.02, glm::dot(up, glm::normalize(sensor_position_ - ground)));
+  const double mu_s = glm::dot(up, sun_direction_);
+  const double sensor_alt = glm::length(sensor_position_) - earth::radius_m;
+  atmosphere::ColumnGeometry g{atmosphere::air_mass(mu_v), mu_s > 0 ? atmosphere::air_mass(mu_s) : -1.0, sensor_alt};
+  if (!atmosphere_) return;
+  // Nodes far beyond the sensor's horizon are never sampled.
+  if (glm::dot(up, glm::normalize(sensor_position_ - ground)) < -0.3) return;
+  for (std::size_t b = 0; b < bands_.size(); ++b) columns_[b][k] = atmosphere::clear_sky_column(p, *bands_[b], g, lat);
+}
+
+EarthView::Stencil EarthView::stencil(double lat, double lon) const {
+  Stencil s;
+  if (!weather_) {
+    s.w = {1, 0, 0, 0};
+    return s;
+  }
+  const auto& g = grid_;
+  const double fy = std::clamp((lat - g.lat0_deg) / g.dlat_deg, 0.0, static_cast<double>(g.nlat - 1));
+  const int j0 = std::min(static_cast<int>(fy), g.nlat - 2);
+  const double wy = fy - j0;
+  const double fx = earth::wrap_lon_360(lon - g.lon0_deg) / g.dlon_deg;
+  int i0, i1;
+  double wx;
+  if (g.wraps()) {
+    i0 = static_cast<int>(fx) % g.nlon, i1 = (i0 + 1) % g.nlon, wx = fx - std::floor(fx);
+  } else {
+    const double cx = std::clamp(fx, 0.0, static_cast<double>(g.nlon - 1));
+    i0 = std::min(static_cast<int>(cx), g.nlon - 2), i1 = i0 + 1, wx = cx - i0;
+  }
+  const auto n = static_cast<std::size_t>(g.nlon);
+  const auto j = static_cast<std::size_t>(j0);
+  s.node = {j * n + static_cast<std::size_t>(i0), j * n + static_cast<std::size_t>(i1),
+            (j + 1) * n + static_cast<std::size_t>(i0), (j + 1) * n + static_cast<std::size_t>(i1)};
+  s.w = {(1 - wy) * (1 - wx), (1 - wy) * wx, wy * (1 - wx), wy * wx};
+  return s;
+}
+
+void EarthView::air(double lat, double lon, double z, double mu_view, double mu_sun, AirSample& out) const {
+  const std::size_t nb = bands_.size();
+  for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
+  if (!atmosphere_) return;
+  const Stencil s = stencil(lat, lon);
+  const double m_view = atmosphere::air_mass(std::max(mu_view, 0.02));
+  const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    double tv = 0, pa = 0, ts = 0, tr = 0, wsum = 0;
+    for (std::size_t q = 0; q < 4; ++q) {
+      if (s.w[q] == 0) continue;
+      const atmosphere::ClearSkyColumn& c = columns_[b][s.node[q]];
+      if (!c.valid()) continue;
+      const atmosphere::ClearSkySample cs = atmosphere::sample(c, z);
+      // The node's column was computed for its own air masses: carry its transmittances to the
+      // pixel's (exact for a grey absorber) and its emission with its absorptance.
+      const double r = m_view / c.view_air_mass;
+      const double t_pix = std::pow(std::max(static_cast<double>(cs.t_view), 1e-30), r);
+      const double a_col = 1 - cs.t_view;
+      const double path = a_col > 1e-6 ? cs.path_radiance * (1 - t_pix) / a_col : cs.path_radiance * r;
+      double t_sun = 1;
+      if (m_sun > 0 && c.sun_air_mass > 0 && cs.t_view > 1e-30) {
+        const double sun_col = std::max(static_cast<double>(cs.t_solar) / cs.t_view, 1e-30);  // Sun path alone
+        t_sun = std::min(1.0, std::pow(sun_col, m_sun / c.sun_air_mass));
+      } else if (m_sun <= 0) {
+        t_sun = 0;
+      }
+      tv += s.w[q] * t_pix, pa += s.w[q] * path, ts += s.w[q] * t_sun, tr += s.w[q] * cs.tau_rayleigh;
+      wsum += s.w[q];
+    }
+    if (wsum <= 0) continue;
+    out.t_view[b] = static_cast<float>(tv / wsum), out.path[b] = static_cast<float>(pa / wsum);
+    out.t_sun[b] = static_cast<float>(ts / wsum), out.tau_rayleigh[b] = static_cast<float>(tr / wsum);
+  }
+}
+
+double EarthView::temperature_k(double lat, double lon, double z) const {
+  const Stencil s = stencil(lat, lon);
+  double t = 0, w = 0;
+  for (std::size_t q = 0; q < 4; ++q)
+    if (s.w[q] > 0) t += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].t, z), w += s.w[q];
+  return t / w;
+}
+
+double EarthView::condensate_g_m3(double lat, double lon, double z) const {
+  if (!has_condensate_) return 0;
+  const Stencil s = stencil(lat, lon);
+  double c = 0;
+  for (std::size_t q = 0; q < 4; ++q)
+    if (s.w[q] > 0 && !nodes_[s.node[q]].condensate.empty())
+      c += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].condensate, z);
+  return c;
+}
+
+surface::State EarthView::ground(double lat, double lon) const {
+  const Stencil s = stencil(lat, lon);
+  surface::State g;
+  g.share = {0, 0, 0, 0};
+  g.skin_temperature_k = 0, g.wind_speed_m_s = 0;
+  double al = 0, al_w = 0;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (s.w[q] == 0) continue;
+    const surface::State& n = nodes_[s.node[q]].ground;
+    for (std::size_t k = 0; k < g.share.size(); ++k) g.share[k] += s.w[q] * n.share[k];
+    g.skin_temperature_k += s.w[q] * n.skin_temperature_k, g.wind_speed_m_s += s.w[q] * n.wind_speed_m_s;
+    if (n.broadband_albedo >= 0) al += s.w[q] * n.broadband_albedo, al_w += s.w[q];
+  }
+  g.broadband_albedo = al_w > 0.5 ? al / al_w : -1;
+  return g;
+}
+
+double EarthView::ground_height_m(double lat, double lon) const {
+  const Stencil s = stencil(lat, lon);
+  double h = 0;
+  for (std::size_t q = 0; q < 4; ++q) h += s.w[q] * nodes_[s.node[q]].ground_height_m;
+  return h;
+}
+
+}  // namespace nephos::render

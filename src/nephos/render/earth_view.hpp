@@ -1,0 +1,72 @@
+#pragma once
+// The weather's atmosphere and ground as one sensor sees them under one Sun: per weather-grid
+// node, the column's clear-sky optics in each band for that node's view and Sun geometry
+// (atmosphere::clear_sky_column), its temperature and condensate profiles and its ground
+// (surface::State); sampled anywhere by bilinear interpolation between nodes, with each node's
+// transmittance carried to the pixel's own air mass.
+#include <array>
+#include <vector>
+
+#include "nephos/atmosphere/clear_sky.hpp"
+#include "nephos/earth/geometry.hpp"
+#include "nephos/earth/sun.hpp"
+#include "nephos/optics/optics.hpp"
+#include "nephos/render/sensor.hpp"
+#include "nephos/surface/surface.hpp"
+#include "nephos/weather/weather_grid.hpp"
+
+namespace nephos::render {
+
+/// What the air does in each band to light leaving altitude z towards the sensor.
+struct AirSample {
+  std::array<float, optics::max_band_count> t_view{};  ///< gas transmittance to the sensor
+  std::array<float, optics::max_band_count> path{};    ///< thermal emission of the air between [W m^-2 sr^-1 um^-1]
+  std::array<float, optics::max_band_count> t_sun{};   ///< gas transmittance from the Sun down to z
+  std::array<float, optics::max_band_count> tau_rayleigh{};  ///< vertical Rayleigh optical depth above z
+};
+
+class EarthView {
+ public:
+  /// @param weather  the weather (nullptr: the US standard atmosphere over a grey 288 K sea)
+  /// @param atmosphere  false: a vacuum (no gases, no Rayleigh), for comparison
+  /// @param ground_temperature_k  without weather, the temperature of the ground (open sea)
+  EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
+            const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k = 288.15);
+
+  /// The air between altitude z [m] at (lat, lon) [deg] and the sensor, for a line of sight of
+  /// cos zenith mu_view and the Sun at cos zenith mu_sun there.
+  void air(double lat_deg, double lon_deg, double z_m, double mu_view, double mu_sun, AirSample& out) const;
+  double temperature_k(double lat_deg, double lon_deg, double z_m) const;
+  /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
+  double condensate_g_m3(double lat_deg, double lon_deg, double z_m) const;
+  bool has_condensate() const { return has_condensate_; }
+  surface::State ground(double lat_deg, double lon_deg) const;
+  double ground_height_m(double lat_deg, double lon_deg) const;
+  bool atmosphere() const { return atmosphere_; }
+  double seconds_to_build() const { return seconds_; }
+
+ private:
+  struct Node {
+    std::vector<float> z, t, condensate;  // levels: altitude [m], temperature [K], condensate [g m^-3]
+    float ground_height_m = 0;
+    surface::State ground;
+  };
+  struct Stencil {
+    std::array<std::size_t, 4> node{};
+    std::array<double, 4> w{};
+  };
+  Stencil stencil(double lat_deg, double lon_deg) const;
+  void build_node(std::size_t n, int j, int i);
+
+  const weather::WeatherGrid* weather_;
+  weather::LatLonGrid grid_;  // a 1 x 1 grid without weather
+  std::vector<const optics::Band*> bands_;
+  bool atmosphere_, has_condensate_ = false;
+  double ground_temperature_k_;
+  earth::Vec3 sensor_position_, sun_direction_;
+  std::vector<Node> nodes_;
+  std::vector<std::vector<atmosphere::ClearSkyColumn>> columns_;  // [band][node]
+  double seconds_ = 0;
+};
+
+}  // namespace nephos::render
