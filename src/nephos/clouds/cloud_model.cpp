@@ -86,6 +86,7 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
   p.displacement_cube_size = d.get_in("cube_size", p.displacement_cube_size, 4, 2048);
   p.displacement_step_s = d.get_in("step_s", p.displacement_step_s, 1.0, 86400.0);
   p.mask_cube_size = dict.table("masks_cube").get_in("size", p.mask_cube_size, 4, 4096);
+  p.follow_weather_tops = dict.table("masks_cube").get("follow_weather_tops", p.follow_weather_tops);
   const ParamDict clouds = dict.table("clouds");
   static const char* fractal_names[] = {"coarse", "fine", "worley"};
   for (int k = 0; k < weather::cloud_type_count; ++k) {
@@ -147,6 +148,71 @@ std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const
   return cubes;
 }
 
+namespace {
+// Geometric height [m] at pressure p [Pa] of grid node `cell`: gh linear in ln p between the
+// levels around it; NaN outside them or where p is NaN.
+float height_at_pressure(const weather::WeatherGrid& w, std::size_t cell, float p) {
+  if (std::isnan(p) || p <= 0) return NAN;
+  const auto& levels = w.pressure_levels_pa();
+  for (int k = 0; k + 1 < w.level_count(); ++k) {
+    const double p0 = levels[static_cast<std::size_t>(k)], p1 = levels[static_cast<std::size_t>(k + 1)];
+    if (!(p <= p0 && p >= p1)) continue;
+    if (!w.has(weather::Field::geopotential_height, k) || !w.has(weather::Field::geopotential_height, k + 1))
+      return NAN;
+    const double h0 = w.level_data(weather::Field::geopotential_height, k)[cell];
+    const double h1 = w.level_data(weather::Field::geopotential_height, k + 1)[cell];
+    const double f = std::log(p0 / p) / std::log(p0 / p1);
+    return static_cast<float>(earth::geometric_from_geopotential_m(h0 + f * (h1 - h0)));
+  }
+  return NAN;
+}
+}  // namespace
+
+std::vector<CubeMap<float>> cloud_top_lifts(const weather::WeatherGrid& w, const CloudModelParams& params,
+                                            const std::vector<CloudType>& types, int n) {
+  using S = weather::SurfaceField;
+  const std::size_t cells = w.grid().size();
+  std::vector<std::vector<float>> lift(types.size(), std::vector<float>(cells, 0.0f));
+  for (std::size_t t = 0; t < types.size(); ++t) {
+    const CloudTypeParams& p = params[types[t]];
+    std::vector<S> fields;
+    switch (types[t]) {
+      case CloudType::low_stratus:
+      case CloudType::low_cumulus:
+        fields = {S::low_cloud_top_pressure};
+        break;
+      case CloudType::altostratus:
+        fields = {S::middle_cloud_top_pressure};
+        break;
+      case CloudType::cirrus:
+        fields = {S::high_cloud_top_pressure, S::convective_cloud_top_pressure};
+        break;
+    }
+    const double down = -0.5 * (p.shell_top_m - p.shell_bottom_m), up = 18000.0 - p.shell_top_m;
+    for (std::size_t c = 0; c < cells; ++c) {
+      float top = NAN;
+      for (S f : fields)
+        if (w.has(f)) {
+          const float h = height_at_pressure(w, c, w.surface(f)[c]);
+          if (!std::isnan(h) && (std::isnan(top) || h > top)) top = h;
+        }
+      if (!std::isnan(top)) lift[t][c] = static_cast<float>(std::clamp(top - p.shell_top_m, down, up));
+    }
+  }
+  std::vector<CubeMap<float>> cubes(types.size(), CubeMap<float>(n));
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int f = 0; f < 6; ++f)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const earth::Geodetic g = earth::geodetic(cubes.front().texel_direction(f, i, j) * earth::radius_m);
+        for (std::size_t t = 0; t < types.size(); ++t) {
+          const float v = weather::sample_bicubic(w.grid(), lift[t], g.lat_deg, g.lon_deg);
+          cubes[t].texel(f, i, j) = std::isnan(v) ? 0.0f : v;
+        }
+      }
+  return cubes;
+}
+
 CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,
                        std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps)
     : type_(type), p_(params), tex_(std::move(textures)), mask_(std::move(mask)), maps_(std::move(maps)) {
@@ -162,12 +228,13 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
   mask_weight_ = p_.mask_weight;
   barrier_z0_ = p_.shell_bottom_m - 1000;
   const int nz = static_cast<int>(p_.shell_top_m - p_.shell_bottom_m) + 2001;
-  barrier_table_.resize(static_cast<std::size_t>(nz));
+  barrier_bottom_.resize(static_cast<std::size_t>(nz)), barrier_top_.resize(static_cast<std::size_t>(nz));
   for (int i = 0; i < nz; ++i) {
     const double alt = barrier_z0_ + i;
-    barrier_table_[static_cast<std::size_t>(i)] =
-        static_cast<float>(p_.altitude_scale * (std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m) +
-                                                std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m)));
+    barrier_bottom_[static_cast<std::size_t>(i)] =
+        static_cast<float>(p_.altitude_scale * std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m));
+    barrier_top_[static_cast<std::size_t>(i)] =
+        static_cast<float>(p_.altitude_scale * std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m));
   }
   build_skip_map();
   if (p_.calibrate) {
@@ -266,14 +333,36 @@ void CloudShell::may_have_cloud(const double* x, const double* y, const double* 
   }
 }
 
-double CloudShell::barrier(double alt) const {
+double CloudShell::barrier_term(const std::vector<float>& table, double alt, bool top) const {
   const double x = alt - barrier_z0_;
-  if (x < 0 || x >= static_cast<double>(barrier_table_.size() - 1))
-    return p_.altitude_scale * (std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m) +
-                                std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m));
+  if (x < 0 || x >= static_cast<double>(table.size() - 1))
+    return p_.altitude_scale * (top ? std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m)
+                                    : std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m));
   const auto i = static_cast<std::size_t>(x);
   const double t = x - static_cast<double>(i);
-  return barrier_table_[i] + t * (barrier_table_[i + 1] - barrier_table_[i]);
+  return table[i] + t * (table[i + 1] - table[i]);
+}
+
+double CloudShell::barrier(double alt, double lift) const {
+  return barrier_term(barrier_bottom_, alt - bottom_lift(lift), false) + barrier_term(barrier_top_, alt - lift, true);
+}
+
+void CloudShell::set_lift(std::shared_ptr<const CubeMap<float>> lift) {
+  if (lift && lift->size() != mask_->size())
+    throw ValueError(
+        fmt::format("a shell's lift map must be its mask's size ({}), not {}", mask_->size(), lift->size()));
+  lift_ = std::move(lift);
+  double lo = 0, hi = 0;
+  if (lift_)
+    for (float v : lift_->data()) lo = std::min(lo, static_cast<double>(v)), hi = std::max(hi, static_cast<double>(v));
+  r_bottom_ = earth::radius_m + p_.shell_bottom_m + bottom_lift(lo);
+  r_top_ = earth::radius_m + p_.shell_top_m + hi;
+}
+
+double CloudShell::lift_at(const earth::Vec3& p) const {
+  if (!lift_) return 0;
+  const double r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+  return lift_->sample(maps_[0].upwind(p * (1 / r)));
 }
 
 double CloudShell::mask_at(const earth::Vec3& p) const {
@@ -325,8 +414,6 @@ struct CloudShell::EvalWork {
   // Where the mask and the barrier table are read (CubeMap::Location; table index and weight).
   alignas(64) std::uint32_t mask_index[eval_chunk];
   alignas(64) float mask_tx[eval_chunk], mask_ty[eval_chunk];
-  alignas(64) int bar_index[eval_chunk];
-  alignas(64) double bar_t[eval_chunk];
   // The points left after the first stage, compacted: chunk index, direction, radius, partial
   // CF, the upwind direction of the current term, footprints and bounds per term (in order).
   alignas(64) std::uint32_t id[eval_chunk];
@@ -356,56 +443,54 @@ struct CloudShell::EvalWork {
   const double thr = p_.threshold;
   const CubeMap<float>& mask_cube = *mask_;
   const float* mask_texels = mask_cube.data().data();
+  const float* lift_texels = lift_ ? lift_->data().data() : nullptr;
   const int mask_n = mask_cube.size();
-  const float* bt = barrier_table_.data();
-  const double bt_last = static_cast<double>(barrier_table_.size() - 1);
-  int off_table = 0;  // points off the barrier table (none on a ray through the shell)
-#pragma omp simd reduction(+ : off_table)
+  const float* bb = barrier_bottom_.data();
+  const float* bt = barrier_top_.data();
+  const double bt_last = static_cast<double>(barrier_top_.size() - 1);
+#pragma omp simd
   for (std::size_t j = 0; j < m; ++j) {
     const earth::Vec3& q = p[c0 + j];
     const double r = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
     const double inv_r = 1 / r;  // one division instead of three
     w.r[j] = r, w.x[j] = q.x * inv_r, w.y[j] = q.y * inv_r, w.z[j] = q.z * inv_r;
-    // Where the barrier table is read, clamped to its range (points off it take barrier()
-    // below).
-    const double xb = r - earth::radius_m - barrier_z0_;
-    const double xc = std::min(std::max(xb, 0.0), bt_last - 1);
-    const int i = static_cast<int>(xc);
-    w.bar_index[j] = i, w.bar_t[j] = xc - i;
-    off_table += !((xb >= 0) & (xb <= bt_last - 1));
   }
   maps_[0].upwind(w.x, w.y, w.z, m, w.mx, w.my, w.mz);
   CubeMap<float>::locate_many(mask_n, w.mx, w.my, w.mz, m, w.mask_index, w.mask_tx, w.mask_ty);
-  // The mask's and the table's loads in this scalar loop, not in the vectorised ones above
-  // (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD cores than scalar
-  // loads from cached lines; the mask's cube map is read coherently along image rows).
-  // Two copies of the loop: the one without barrier()'s call (the chunk is on the table, as
-  // every chunk of a march is) keeps its pointers and constants in registers.
-  auto live_points = [&]<bool AnyOff>() {
-    std::size_t live = 0;
-    for (std::size_t j = 0; j < m; ++j) {
-      using Cube = CubeMap<float>;
-      const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
-      const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
-      const int i = w.bar_index[j];
-      const double alt = w.r[j] - earth::radius_m, xb = alt - barrier_z0_;
-      const double table = bt[i] + w.bar_t[j] * (bt[i + 1] - bt[i]);
-      const double bar = !AnyOff || (xb >= 0 && xb <= bt_last - 1) ? table : barrier(alt);
-      const double base = bias_ + mask_term(mask) - bar;
-      if (mask < p_.min_mask) {
-        out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
-      } else if (base + fractal_max_ < thr) {
-        out[c0 + j] = base + fractal_max_;  // cannot reach the level set
-      } else {
-        w.id[live] = static_cast<std::uint32_t>(j);
-        w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
-        w.v[live] = base;
-        ++live;
-      }
+  // The mask's, the lift's and the barrier table's loads in this scalar loop, not in the
+  // vectorised ones above (CubeMap::locate_many: vectorised, GCC gathers them, slower on AMD
+  // cores than scalar loads from cached lines; the cube maps are read coherently along image
+  // rows). The lift reads the mask's texels' positions in its own map of the same size.
+  std::size_t live = 0;
+  for (std::size_t j = 0; j < m; ++j) {
+    using Cube = CubeMap<float>;
+    const Cube::Location l{w.mask_index[j], w.mask_tx[j], w.mask_ty[j]};
+    const double mask = Cube::blend_at(l, mask_texels, l.index, 1, static_cast<std::size_t>(mask_n));
+    const double lift =
+        lift_texels ? Cube::blend_at(l, lift_texels, l.index, 1, static_cast<std::size_t>(mask_n)) : 0.0;
+    const double alt = w.r[j] - earth::radius_m, xt = alt - barrier_z0_ - lift;
+    const double xb = alt - barrier_z0_ - bottom_lift(lift);
+    double bar;
+    if (xb >= 0 && xb <= bt_last - 1 && xt >= 0 && xt <= bt_last - 1) {
+      const auto ib = static_cast<std::size_t>(xb), it = static_cast<std::size_t>(xt);
+      bar = bb[ib] + (xb - static_cast<double>(ib)) * (bb[ib + 1] - bb[ib]) + bt[it] +
+            (xt - static_cast<double>(it)) * (bt[it + 1] - bt[it]);
+    } else {
+      bar = barrier(alt, lift);  // off the tables
     }
-    return live;
-  };
-  return off_table ? live_points.template operator()<true>() : live_points.template operator()<false>();
+    const double base = bias_ + mask_term(mask) - bar;
+    if (mask < p_.min_mask) {
+      out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
+    } else if (base + fractal_max_ < thr) {
+      out[c0 + j] = base + fractal_max_;  // cannot reach the level set
+    } else {
+      w.id[live] = static_cast<std::uint32_t>(j);
+      w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
+      w.v[live] = base;
+      ++live;
+    }
+  }
+  return live;
 }
 
 // Stage 2: the upwind points and texture footprints of every fractal term (texture
@@ -583,15 +668,16 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
       // The barriers' derivative analytic (their length scales, 150 m and up, are not much
       // longer than h), along the vertical.
       const double alt = r[a] - earth::radius_m;
-      const double e_bottom = std::exp(-(alt - p_.shell_bottom_m) / p_.altitude_length_bottom_m),
-                   e_top = std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m);
+      const double lift = lift_ ? lift_->sample(earth::Vec3{ux[a], uy[a], uz[a]}) : 0.0;
+      const double e_bottom = std::exp(-(alt - bottom_lift(lift) - p_.shell_bottom_m) / p_.altitude_length_bottom_m),
+                   e_top = std::exp((alt - lift - p_.shell_top_m) / p_.altitude_length_top_m);
       const double dbarrier =
           p_.altitude_scale * (e_top / p_.altitude_length_top_m - e_bottom / p_.altitude_length_bottom_m);
       const double s0 = smooth[a];
       gradient[c0 + a] = earth::Vec3{(smooth[chunk + a] - s0) * inv_h, (smooth[2 * chunk + a] - s0) * inv_h,
                                      (smooth[3 * chunk + a] - s0) * inv_h} -
                          dbarrier * earth::Vec3{x[a], y[a], z[a]};
-      if (value) value[c0 + a] = bias_ + s0 - barrier(alt);
+      if (value) value[c0 + a] = bias_ + s0 - barrier(alt, lift);
     }
     // Stage 2: the fractal terms, in evaluate()'s order.
     for (std::size_t t = 0; t < nt; ++t) {
@@ -664,6 +750,7 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
   const double bake_s = seconds_since(t0);
   t0 = clock::now();
   std::vector<CubeMap<float>> cubes = mask_cubes(masks, types, params.mask_cube_size);
+  std::vector<CubeMap<float>> lifts = cloud_top_lifts(weather, params, types, params.mask_cube_size);
   double shells_s = seconds_since(t0);  // mask cubes, then the shells' skip maps
   // Wind fields (one per sampling altitude) and every displacement map they drive, the maps of
   // one wind built together (DisplacementMap::build_all shares the integration of durations).
@@ -698,8 +785,11 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
     std::vector<DisplacementMap> maps{map_for(p.mask_displace_hours)};
     for (const auto& f : p.fractals) maps.push_back(map_for(f.displace_hours));
     t0 = clock::now();
-    auto cube = std::make_shared<const CubeMap<float>>(std::move(cubes[scene.shells.size()]));
+    const std::size_t k = scene.shells.size();
+    auto cube = std::make_shared<const CubeMap<float>>(std::move(cubes[k]));
     scene.shells.emplace_back(t, p, scene.textures, std::move(cube), std::move(maps));
+    if (params.follow_weather_tops)
+      scene.shells.back().set_lift(std::make_shared<const CubeMap<float>>(std::move(lifts[k])));
     scene.wind_of_shell.push_back(w);
     shells_s += seconds_since(t0);
   }

@@ -84,6 +84,9 @@ struct CloudModelParams {
   int displacement_cube_size = 128;
   double displacement_step_s = 1800;
   int mask_cube_size = 512;
+  /// Shells lifted per location to the weather's own cloud tops (cloud_top_lifts(); config
+  /// [masks_cube] follow_weather_tops). false: the types' fixed shell ranges (Table 1).
+  bool follow_weather_tops = true;
   std::array<CloudTypeParams, weather::cloud_type_count> types;
 
   CloudModelParams();  ///< defaults: docs/render.md
@@ -97,6 +100,15 @@ struct CloudModelParams {
   const CloudTypeParams& operator[](CloudType t) const { return types[static_cast<std::size_t>(t)]; }
   CloudTypeParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
 };
+
+/// How far each type's shell rises or sinks per location to meet the weather's own cloud tops,
+/// on n x n cube maps (bicubic from the lat-lon grid), one per type in order: GFS's diagnosed
+/// top pressure of the type's layer (low cloud for the low types, middle cloud for altostratus,
+/// the higher of high and convective cloud for cirrus), as a height on the column's gh profile,
+/// less the type's nominal top; at most half the shell's depth down and up to 18 km; 0 where the
+/// weather has no such top (no cloud of that layer, or no field).
+std::vector<CubeMap<float>> cloud_top_lifts(const weather::WeatherGrid& weather, const CloudModelParams& params,
+                                            const std::vector<CloudType>& types, int n);
 
 /// The weather masks of `types` resampled onto n x n cube maps (bicubic from the lat-lon grid,
 /// weather::sample_bicubic), one per type in order.
@@ -137,6 +149,13 @@ class CloudShell {
   void value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient) const;
   /// The mask value seen at p (after the mask's displacement).
   double mask_at(const earth::Vec3& p) const;
+  /// Lifts the shell per location: at a point whose displaced mask direction is u the cloud
+  /// function's altitude barriers stand lift(u) metres higher (the weather's own cloud tops;
+  /// cloud_top_lifts()), the bottom one no lower than the ground. A cube map of the mask's
+  /// size; the shell's radii grow to hold it.
+  void set_lift(std::shared_ptr<const CubeMap<float>> lift);
+  /// The lift at p [m] (0 without one).
+  double lift_at(const earth::Vec3& p) const;
   /// The finest feature size [m]: the fine fractal's voxel.
   double feature_size_m() const;
   /// Conservative test for empty-space skipping: false when no point within `radius_m` of
@@ -164,7 +183,8 @@ class CloudShell {
   CloudTypeParams p_;
   std::shared_ptr<const FractalTextures> tex_;
   std::shared_ptr<const CubeMap<float>> mask_;
-  std::vector<DisplacementMap> maps_;  ///< [0] mask, [1..3] fractals
+  std::shared_ptr<const CubeMap<float>> lift_;  ///< per-location rise of the barriers [m], or null
+  std::vector<DisplacementMap> maps_;           ///< [0] mask, [1..3] fractals
   /// The fractal terms with a non-zero weight, in evaluation order, into terms; their count.
   std::size_t active_terms(std::array<int, 3>& terms) const;
   /// Whether terms[t] is displaced like terms[t - 1], so that its upwind points are those.
@@ -181,7 +201,13 @@ class CloudShell {
   void sample_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t c0, std::size_t nsel, bool early_out,
                     double* out, EvalWork& w) const;
   void build_skip_map();
-  double barrier(double alt) const;
+  /// The altitude barriers at altitude alt [m] with the top one raised by lift [m]: A (exp(-(alt -
+  /// bottom) / L_bottom) + exp((alt - lift - top) / L_top)), from tables where alt is on them.
+  double barrier(double alt, double lift = 0) const;
+  double barrier_term(const std::vector<float>& table, double x, bool top) const;
+  /// The bottom barrier moves with the lift but not below the ground (a shell on the ground
+  /// lowered by the weather only thins from the top).
+  double bottom_lift(double lift) const { return std::max(lift, -p_.shell_bottom_m); }
   /// The mask's term of CF: w m, or with calibration phi(m) (linear between 1025 nodes).
   double mask_term(double m) const {
     if (mask_terms_.empty()) return mask_weight_ * m;
@@ -199,7 +225,7 @@ class CloudShell {
   double skip_radius_rad_ = 0;
   // Altitude barriers tabulated at 1 m over the shell +- 1 km (linear interpolation; the
   // exponentials' relative change over 1 m is < 1/150, error < 1e-5).
-  std::vector<float> barrier_table_;
+  std::vector<float> barrier_bottom_, barrier_top_;  ///< each barrier at 1 m steps from barrier_z0_
   double barrier_z0_ = 0;
 };
 

@@ -683,8 +683,10 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
 }
 
 // A ray that misses the Earth: the limb's haze and emission where it passes through the air
-// (tangent height below 100 km), black space beyond. The air along the tangent path is that of
-// the column at the tangent point, its vertical amounts times the Chapman grazing factor.
+// (tangent height below 100 km), black space beyond. The air along the tangent path is the
+// column at the tangent point's, in shells: the path's share of a shell above height h is its
+// vertical amount above h times the Chapman grazing factor, so the emission is the sum over the
+// shells of B(T) times the transmittance the shell adds (the limb's weighting function).
 void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<double, optics::max_band_count>& out) {
   out.fill(0.0);
   if (!c.earth.atmosphere()) return;
@@ -696,19 +698,30 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   const earth::Vec3 up = glm::normalize(tangent);
   const earth::Geodetic g = earth::geodetic(tangent);
   const double mu_sun = glm::dot(c.sun_dir, up);
-  AirSample air;
-  c.earth.air(g.lat_deg, g.lon_deg, h, 1.0, std::max(mu_sun, 0.02), air);
   const double m = t_tangent > 0 ? 2 * grazing_air_mass(h) : atmosphere::air_mass(std::max(glm::dot(up, d), 0.0));
-  const double t_air = c.earth.temperature_k(g.lat_deg, g.lon_deg, h);
-  for (std::size_t b = 0; b < c.band_count(); ++b) {
-    const optics::Band& band = *c.tables.bands[b];
-    if (band.thermal) out[b] += c.tables.planck[b]->forward(t_air) * (1 - std::pow(std::max(air.t_view[b], 1e-30f), m));
-    if (RenderContext::solar(band) && mu_sun > -0.1) {
-      const double e0 =
-          c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
-      out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
-                (1 - std::exp(-air.tau_rayleigh[b] * m));
+  const std::size_t nb = c.band_count();
+  // Shell boundaries above the tangent height [m]; the transmittance of the path's part above each.
+  constexpr std::array<double, 12> above = {0, 1e3, 2e3, 4e3, 7e3, 11e3, 16e3, 22e3, 30e3, 40e3, 55e3, 80e3};
+  std::array<double, optics::max_band_count> t_prev{};
+  AirSample air;
+  for (std::size_t k = above.size(); k-- > 0;) {
+    const double z = h + above[k];
+    c.earth.air(g.lat_deg, g.lon_deg, z, 1.0, std::max(mu_sun, 0.02), air);
+    const double temperature =
+        c.earth.temperature_k(g.lat_deg, g.lon_deg, z + 0.5 * (k + 1 < above.size() ? above[k + 1] - above[k] : 0));
+    for (std::size_t b = 0; b < nb; ++b) {
+      const double t = std::pow(std::max(static_cast<double>(air.t_view[b]), 1e-30), m);
+      if (k + 1 == above.size()) t_prev[b] = 1.0;
+      if (c.tables.bands[b]->thermal) out[b] += c.tables.planck[b]->forward(temperature) * std::max(0.0, t_prev[b] - t);
+      t_prev[b] = t;
     }
+  }
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (!RenderContext::solar(*c.tables.bands[b]) || mu_sun <= -0.1) continue;
+    const double e0 =
+        c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
+    out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
+              (1 - std::exp(-air.tau_rayleigh[b] * m)) * t_prev[b];
   }
 }
 
