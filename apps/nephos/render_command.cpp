@@ -25,6 +25,7 @@ struct RenderOptions {
   int steps = 25;
   int samples = 1;
   bool sample_grid = false;
+  bool no_atmosphere = false, no_shadows = false;
   int texture = 0;
   std::string displace_hours;  // empty: per-type defaults
   double advance_hours = 0;
@@ -50,6 +51,8 @@ render::RenderRequest request_of(const RenderOptions& o, const GlobalOptions& g)
   r.view.steps = o.steps;
   r.view.samples = o.samples;
   r.view.sample_grid = o.sample_grid;
+  r.view.atmosphere = !o.no_atmosphere;
+  r.view.shadows = !o.no_shadows;
   if (!o.time.empty()) r.view.time = parse_time(o.time, "time");
   r.advance_hours = o.advance_hours;
   r.frames = o.frames;
@@ -96,6 +99,11 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   rend->add_flag("--sample-grid", o->sample_grid,
                  "With --samples: each ray at its sub-pixel's centre (a regular grid) instead of stratified");
+  rend->add_flag("--no-atmosphere", o->no_atmosphere,
+                 "No gases, Rayleigh scattering or emission of the air between scene and sensor (a vacuum; for "
+                 "comparison)");
+  rend->add_flag("--no-shadows", o->no_shadows,
+                 "Direct sunlight not dimmed by the clouds towards the Sun (for speed comparisons)");
   rend->add_option("--texture", o->texture,
                    "Fractal texture size N (N^3 voxels, power of two 8..1024; default 256 or the config's [textures] "
                    "size)");

@@ -22,6 +22,8 @@ RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
   rp.set_steps(view.steps, "steps");
   rp.set_rays_per_pixel(view.samples, "samples");
   rp.stratified_samples = !view.sample_grid;
+  rp.atmosphere = view.atmosphere;
+  rp.shadows = view.shadows;
   rp.sample_seed = seed;
   return rp;
 }

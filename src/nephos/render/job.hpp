@@ -40,6 +40,8 @@ struct ViewRequest {
   int steps = 25;               ///< ray-marching steps per shell
   int samples = 1;              ///< rays per pixel, a square k^2 (1..256)
   bool sample_grid = false;     ///< sub-pixel rays at the sub-pixels' centres, not stratified
+  bool atmosphere = true;       ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
+  bool shadows = true;          ///< clouds shade the ground and lower clouds from direct sunlight
   std::optional<UtcTime> time;  ///< UTC for the Sun; empty: the weather's valid time
 };
 

@@ -18,6 +18,7 @@
 #include "nephos/core/progress.hpp"
 #include "nephos/render/earth_view.hpp"
 #include "nephos/render/radiometry.hpp"
+#include "nephos/render/shadows.hpp"
 #include "nephos/surface/surface.hpp"
 
 namespace nephos::render {
@@ -448,7 +449,11 @@ struct RenderContext {
   earth::Vec3 sun_dir;
   double sun_scale = 1;                              ///< (1 AU / Sun distance)^2
   std::vector<optics::OpticalProperties> vis_props;  ///< [type], the types' own, for the optical depth
-  std::vector<double> asymmetry;                     ///< [type], the types' own (0: by phase)
+  std::vector<double> asymmetry;                     ///< [type], the types' own
+  /// [type][band] the similarity-scaled extinction factor (1 - omega g) of the type's own optics
+  /// and its scaled single-scattering albedo, for the shadows it casts.
+  std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
+  bool shadows = false;  ///< shadows asked for and a solar band among the bands
 
   RenderContext(const clouds::CloudScene& scene_, const Sensor& sensor_, const earth::SunPosition& sun,
                 const RenderParams& params_, const weather::WeatherGrid* weather_, const BandTables& tables_,
@@ -457,13 +462,21 @@ struct RenderContext {
     sun_dir = sun.direction_ecef;
     sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
     const std::size_t ns = scene.shells.size();
-    vis_props.resize(ns), asymmetry.resize(ns);
+    vis_props.resize(ns), asymmetry.resize(ns), shadow_scale.resize(ns), shadow_omega.resize(ns);
     for (std::size_t si = 0; si < ns; ++si) {
       const clouds::CloudTypeParams& cp = scene.shells[si].params();
       asymmetry[si] = cp.asymmetry;
       vis_props[si] =
           optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
+      for (std::size_t b = 0; b < tables.bands.size(); ++b) {
+        const double omega =
+            optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *tables.bands[b])
+                .single_scattering_albedo;
+        const optics::SlabOptics so = optics::similarity_scaled(1.0, omega, cp.asymmetry);
+        shadow_scale[si][b] = so.tau, shadow_omega[si][b] = so.omega;
+      }
     }
+    for (const auto* b : tables.bands) shadows = shadows || (params.shadows && solar(*b));
   }
   std::size_t band_count() const { return tables.bands.size(); }
   /// Sunlight in band b at 1 AU scaled to the Sun's distance [W m^-2 um^-1, normal to the beam].
@@ -557,7 +570,14 @@ void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
 struct Sunlight {
   std::array<double, optics::max_band_count> direct{}, sky{};
 };
-Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun) {
+// Cloud between a point and the Sun: the length of each shell's cloud along the sunward ray.
+using CloudLengths = std::array<double, weather::cloud_type_count>;
+
+// Sunlight arriving at a point through the air above and the clouds towards the Sun
+// (`lengths`, by shell; null: none): the direct beam dimmed by exp(-tau') of the clouds'
+// similarity-scaled optical depth along it, the light they scatter forwards added to the
+// diffuse part (the plane-parallel layer of that optical depth's diffuse transmittance).
+Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, const CloudLengths* lengths = nullptr) {
   Sunlight s;
   if (mu_sun <= 0) return s;
   for (std::size_t b = 0; b < c.band_count(); ++b) {
@@ -566,15 +586,42 @@ Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun) {
     const double direct = std::exp(-air.tau_rayleigh[b] / mu_sun);
     s.direct[b] = e0 * direct;
     s.sky[b] = e0 * mu_sun * (rayleigh_down(air.tau_rayleigh[b], mu_sun) - direct);
+    if (!lengths) continue;
+    double tau = 0, omega_tau = 0;  // along the Sun's path, scaled
+    for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
+      const double t = c.shadow_scale[si][b] * c.vis_props[si].extinction_per_m * (*lengths)[si];
+      tau += t, omega_tau += t * c.shadow_omega[si][b];
+    }
+    if (tau <= 0) continue;
+    const double t_direct = std::exp(-tau), tau_vertical = tau * mu_sun;
+    const double t_diffuse = std::max(
+        0.0, optics::two_stream_slab(tau_vertical, omega_tau / tau).transmittance - std::exp(-tau_vertical / 0.6));
+    s.sky[b] += s.direct[b] * mu_sun * t_diffuse;
+    s.direct[b] *= t_direct;
   }
   return s;
+}
+
+// The cloud towards the Sun from n points, by shell: each shell except `skip` (a cloud's own
+// shell: its self-shading is the layer's).
+void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::size_t n, std::size_t skip,
+                       std::vector<CloudLengths>& out) {
+  out.assign(n, CloudLengths{});
+  thread_local std::vector<double> len;
+  len.resize(n);
+  const int steps = std::max(6, c.params.steps / 2);
+  for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
+    if (si == skip) continue;
+    cloud_length_towards(c.scene.shells[si], points, c.sun_dir, n, steps, len.data());
+    for (std::size_t i = 0; i < n; ++i) out[i][si] = len[i];
+  }
 }
 
 // One cloud type's layer at a hit: distance, altitude, visible optical depth, and per band the
 // radiance leaving it that reaches the sensor through the clear air above, and the transmittance
 // of what lies behind (a plane-parallel slab of the same vertical optical depth).
-void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, const earth::Vec3& dir, Layer& L,
-               float* lb) {
+void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, const earth::Vec3& dir,
+               const CloudLengths* towards_sun, Layer& L, float* lb) {
   const std::size_t nb = c.band_count();
   const double f_ind = c.params.indirect_fraction;
   L.t = static_cast<float>(hit.t);
@@ -594,7 +641,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
   c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
-  const Sunlight sun = sunlight(c, air, mu_sun);
+  const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
     const optics::OpticalProperties p =
@@ -624,6 +671,9 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
     std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
     std::vector<double> t_max(static_cast<std::size_t>(w));
     std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
+    std::vector<int> lit;                 // the row's hits in sunlight
+    std::vector<earth::Vec3> lit_points;  // their positions
+    std::vector<CloudLengths> lengths;    // the cloud towards the Sun from them
 #pragma omp for schedule(dynamic, 4) reduction(+ : marched)
     for (int y = rb.y0; y < rb.y1; ++y) {
       c.sub.row_rays(c.sensor, y, dirs.data());
@@ -631,11 +681,23 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
       for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = rb.t_earth[row + x];
       march_shell(shell, c.sensor.position, dirs.data(), t_max.data(), dirs.size(), c.params.steps,
                   c.params.bisection_iterations, row_hits.data());
+      // The clouds of the other shells towards the Sun from this row's hits.
+      lit.clear(), lit_points.clear();
+      for (int x = 0; x < w; ++x) {
+        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
+        if (c.shadows && hit.hit && glm::dot(hit.position, c.sun_dir) > 0)
+          lit.push_back(x), lit_points.push_back(hit.position);
+      }
+      if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), si, lengths);
+      std::size_t next_lit = 0;
       for (int x = 0; x < w; ++x) {
         const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
         marched += hit.marched;
-        if (hit.hit)
-          shade_hit(c, si, hit, dirs[static_cast<std::size_t>(x)], rb.layer(row + x, si), rb.bands(row + x, si));
+        if (!hit.hit) continue;
+        const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
+        shade_hit(c, si, hit, dirs[static_cast<std::size_t>(x)], shadowed ? &lengths[next_lit] : nullptr,
+                  rb.layer(row + x, si), rb.bands(row + x, si));
+        next_lit += shadowed;
       }
       progress.advance();
     }
@@ -658,14 +720,14 @@ void path_radiance(const RenderContext& c, const AirSample& air, double mu_view,
 // The ground where a ray meets it: reflected sunlight (Lambertian albedo, and sun glint on open
 // water) and emission, as they reach the sensor, per band; and the air's radiance above it.
 void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const earth::Vec3& up, const earth::Vec3& d,
-                     std::array<double, optics::max_band_count>& out,
+                     const CloudLengths* towards_sun, std::array<double, optics::max_band_count>& out,
                      std::array<double, optics::max_band_count>& path) {
   const double z = c.earth.ground_height_m(g.lat_deg, g.lon_deg);
   const surface::State ground = c.earth.ground(g.lat_deg, g.lon_deg);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(g.lat_deg, g.lon_deg, z, mu_view, mu_sun, air);
-  const Sunlight sun = sunlight(c, air, mu_sun);
+  const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);
   for (std::size_t b = 0; b < c.band_count(); ++b) {
@@ -725,69 +787,107 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   }
 }
 
-// The band's rows into the image: from the sensor down, each cloud layer's radiance and the air's
-// between the layers, seen through the layers in front; then the ground or the sky behind.
+// One pixel's cloud layers seen from the sensor down: each layer's radiance and the air's
+// between the layers, through the layers in front. Returns the visible optical depth; rad,
+// trans and path_above (the air's radiance above the last layer) are per band.
+float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bpx, std::size_t px, const earth::Vec3& d,
+                       RenderImage& img, double* rad, double* trans, double* path_above) {
+  const std::size_t ns = rb.ns, nb = c.band_count();
+  std::array<std::size_t, weather::cloud_type_count> order{};
+  const Layer* pl = &rb.layers[bpx * ns];
+  for (std::size_t s = 0; s < ns; ++s) {  // by distance: insertion into at most four
+    std::size_t j = s;
+    for (; j > 0 && pl[order[j - 1]].t > pl[s].t; --j) order[j] = order[j - 1];
+    order[j] = s;
+  }
+  std::array<double, optics::max_band_count> path{};
+  for (std::size_t b = 0; b < nb; ++b) rad[b] = 0, trans[b] = 1, path_above[b] = 0;
+  float tau = 0;
+  for (std::size_t s = 0; s < ns; ++s) {
+    const Layer& L = pl[order[s]];
+    const float* const lb = &rb.layer_bands[(bpx * ns + order[s]) * rb.lbf];
+    if (!std::isfinite(L.t)) break;
+    const earth::Vec3 p = c.sensor.position + static_cast<double>(L.t) * d;
+    const earth::Geodetic g = earth::geodetic(p);
+    if (s == 0) {
+      img.cloud_fraction[px] = 1;
+      img.cloud_top_altitude_m[px] = L.altitude;
+      img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
+      img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+      img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+    }
+    if (c.earth.atmosphere()) {
+      const earth::Vec3 up = glm::normalize(p);
+      const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
+      AirSample air;
+      c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
+      path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
+    }
+    tau += L.tau_vis;
+    for (std::size_t b = 0; b < nb; ++b) {
+      rad[b] += trans[b] * (std::max(0.0, path[b] - path_above[b]) + lb[b]);
+      trans[b] *= lb[nb + b];
+      path_above[b] = path[b];
+    }
+  }
+  return tau;
+}
+
+// The band's rows into the image: each pixel's cloud layers, then what lies behind them, the
+// ground (its shadows found for the whole row together) or the sky.
 void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
   const int w = c.sensor.width;
-  const std::size_t ns = rb.ns, nb = c.band_count();
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = rb.y0; y < rb.y1; ++y) {
-    std::vector<std::size_t> order(ns);
+  const std::size_t nb = c.band_count(), mb = optics::max_band_count;
+#pragma omp parallel
+  {
     std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    c.sub.row_rays(c.sensor, y, dirs.data());
-    for (int x = 0; x < w; ++x) {
-      const std::size_t px = static_cast<std::size_t>(y) * w + x;
-      const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;  // within the band
-      const earth::Vec3 d = dirs[static_cast<std::size_t>(x)];
-      const Layer* pl = &rb.layer(bpx, 0);
-      for (std::size_t s = 0; s < ns; ++s) order[s] = s;
-      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return pl[a].t < pl[b].t; });
-      std::array<double, optics::max_band_count> rad{}, trans, path_above{}, path{};
-      trans.fill(1.0);
-      float tau = 0;
-      for (std::size_t s = 0; s < ns; ++s) {
-        const Layer& L = pl[order[s]];
-        const float* const lb = rb.bands(bpx, order[s]);
-        if (!std::isfinite(L.t)) break;
-        const earth::Vec3 p = c.sensor.position + static_cast<double>(L.t) * d;
-        const earth::Geodetic g = earth::geodetic(p);
-        if (s == 0) {
-          img.cloud_fraction[px] = 1;
-          img.cloud_top_altitude_m[px] = L.altitude;
-          img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
-          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-        }
-        if (c.earth.atmosphere()) {
-          const earth::Vec3 up = glm::normalize(p);
-          const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
-          AirSample air;
-          c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
-          path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
-        }
-        tau += L.tau_vis;
-        for (std::size_t b = 0; b < nb; ++b) {
-          rad[b] += trans[b] * (std::max(0.0, path[b] - path_above[b]) + lb[b]);
-          trans[b] *= lb[nb + b];
-          path_above[b] = path[b];
-        }
+    std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size());
+    std::vector<int> lit;
+    std::vector<earth::Vec3> lit_points;
+    std::vector<CloudLengths> lengths;
+#pragma omp for schedule(dynamic, 4)
+    for (int y = rb.y0; y < rb.y1; ++y) {
+      c.sub.row_rays(c.sensor, y, dirs.data());
+      lit.clear(), lit_points.clear();
+      for (int x = 0; x < w; ++x) {
+        const std::size_t px = static_cast<std::size_t>(y) * w + x;
+        const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
+        const auto xo = static_cast<std::size_t>(x) * mb;
+        img.cloud_optical_depth[px] = composite_layers(c, rb, bpx, px, dirs[static_cast<std::size_t>(x)], img, &rad[xo],
+                                                       &trans[xo], &path_above[xo]);
+        // The ground points the Sun lights and that show through the clouds: their shadows.
+        if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
+        const earth::Vec3 q =
+            c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[static_cast<std::size_t>(x)];
+        double seen = 0;
+        for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[xo + b]);
+        if (seen > 1e-4 && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
       }
-      std::array<double, optics::max_band_count> bg{}, bg_path{};
-      if (std::isfinite(rb.t_earth[bpx])) {
-        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
-        const earth::Geodetic g = earth::geodetic(q);
-        if (!(img.cloud_fraction[px] > 0)) {
-          img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-          img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+      if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), c.scene.shells.size(), lengths);
+      std::size_t next_lit = 0;
+      for (int x = 0; x < w; ++x) {
+        const std::size_t px = static_cast<std::size_t>(y) * w + x;
+        const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
+        const auto xo = static_cast<std::size_t>(x) * mb;
+        const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
+        std::array<double, optics::max_band_count> bg{}, bg_path{};
+        if (std::isfinite(rb.t_earth[bpx])) {
+          const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
+          const earth::Geodetic g = earth::geodetic(q);
+          if (!(img.cloud_fraction[px] > 0)) {
+            img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+            img.longitude_deg[px] = static_cast<float>(g.lon_deg);
+          }
+          const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
+          ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path);
+          next_lit += shadowed;
+        } else {
+          sky_radiance(c, d, bg);
         }
-        ground_radiance(c, g, q / glm::length(q), d, bg, bg_path);
-      } else {
-        sky_radiance(c, d, bg);
+        for (std::size_t b = 0; b < nb; ++b)
+          img.radiance[b][px] = static_cast<float>(
+              rad[xo + b] + trans[xo + b] * (std::max(0.0, bg_path[b] - path_above[xo + b]) + bg[b]));
       }
-      img.cloud_optical_depth[px] = tau;
-      for (std::size_t b = 0; b < nb; ++b)
-        img.radiance[b][px] =
-            static_cast<float>(rad[b] + trans[b] * (std::max(0.0, bg_path[b] - path_above[b]) + bg[b]));
     }
   }
 }

@@ -1,0 +1,67 @@
+#include "nephos/render/shadows.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace nephos::render {
+
+void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o, const earth::Vec3& d, std::size_t n,
+                          int steps, double* out) {
+  thread_local std::vector<double> t0, t1, px, py, pz, vals;
+  thread_local std::vector<std::uint8_t> possible;
+  thread_local std::vector<std::uint32_t> live;
+  thread_local std::vector<earth::Vec3> pts;
+  t0.resize(n), t1.resize(n), possible.resize(n);
+  const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
+  // Each ray's path inside the shell: from where it leaves the inner sphere (or its origin) to
+  // where it leaves the outer one. Rays from above the shell see none of it.
+  for (std::size_t i = 0; i < n; ++i) {
+    const double b = glm::dot(o[i], d), oo = glm::dot(o[i], o[i]);
+    t0[i] = t1[i] = 0;
+    if (oo >= r_top * r_top) continue;
+    t1[i] = -b + std::sqrt(std::max(0.0, b * b - (oo - r_top * r_top)));
+    const double c = oo - r_bottom * r_bottom;
+    t0[i] = c < 0 ? -b + std::sqrt(std::max(0.0, b * b - c)) : 0.0;
+    if (t0[i] >= t1[i]) t0[i] = t1[i] = 0;
+  }
+  // Empty-space skip: the mask's neighbourhood maximum at the path's two ends and between them,
+  // one lookup per skip radius of arc.
+  std::fill(possible.begin(), possible.end(), 0);
+  px.clear(), py.clear(), pz.clear(), live.clear();
+  std::vector<std::uint32_t> owner;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (t1[i] <= t0[i]) continue;
+    const earth::Vec3 a = o[i] + t0[i] * d, e = o[i] + t1[i] * d;
+    const double arc = glm::length(glm::normalize(e) - glm::normalize(a));
+    const int m = 1 + static_cast<int>(std::min(arc / shell.skip_radius_rad(), 64.0));
+    for (int k = 0; k <= m; ++k) {
+      const earth::Vec3 p = glm::normalize(o[i] + (t0[i] + (t1[i] - t0[i]) * k / m) * d);
+      px.push_back(p.x), py.push_back(p.y), pz.push_back(p.z), owner.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  std::vector<std::uint8_t> found(owner.size());
+  shell.may_have_cloud(px.data(), py.data(), pz.data(), owner.size(), found.data());
+  for (std::size_t k = 0; k < owner.size(); ++k) possible[owner[k]] |= found[k];
+  for (std::size_t i = 0; i < n; ++i) {
+    out[i] = 0;
+    if (possible[i]) live.push_back(static_cast<std::uint32_t>(i));
+  }
+  // The march: every live ray's step midpoints, classified together, step by step.
+  const std::size_t nl = live.size();
+  pts.resize(nl), vals.resize(nl);
+  const double thr = shell.threshold();
+  for (int k = 0; k < steps; ++k) {
+    for (std::size_t j = 0; j < nl; ++j) {
+      const std::uint32_t i = live[j];
+      pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * (k + 0.5) / steps) * d;
+    }
+    shell.classify(pts.data(), nl, vals.data());
+    for (std::size_t j = 0; j < nl; ++j) {
+      const std::uint32_t i = live[j];
+      if (vals[j] > thr) out[i] += (t1[i] - t0[i]) / steps;
+    }
+  }
+}
+
+}  // namespace nephos::render
