@@ -497,13 +497,16 @@ struct Microphysics {
 // sea, 300 cm^-3 and 0.67 over land) and from the temperature for ice (Ou & Liou 1995:
 // D_e = 326.3 + 12.42 T + 0.197 T^2 + 0.0012 T^3 um, T in C, -60..-20 C). Else the type's own.
 Microphysics microphysics(const RenderContext& c, std::size_t si, double lat, double lon, double alt,
-                          const earth::Vec3& p, double t_cloud) {
+                          double thickness_m, const earth::Vec3& p, double t_cloud) {
   const clouds::CloudTypeParams& cp = c.scene.shells[si].params();
   Microphysics m{cp.phase, cp.water_content_g_m3, cp.effective_radius_um};
   if (!c.weather) return m;
   m.phase = t_cloud < 258.15 ? optics::Phase::ice : optics::Phase::water;
   if (c.earth.has_condensate()) {
-    const double q = c.earth.condensate_g_m3(lat, lon, alt);
+    // The condensate's mean over the cloud's vertical extent below its top (a top's own value
+    // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops).
+    double q = 0;
+    for (int k = 0; k < 5; ++k) q += c.earth.condensate_g_m3(lat, lon, alt - thickness_m * (k + 0.5) / 5) / 5;
     if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / std::max(c.scene.shells[si].mask_at(p), 0.1), 0.01, 3.0);
   }
   if (m.phase == optics::Phase::water) {
@@ -628,13 +631,17 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double r = glm::length(hit.position);
   const earth::Vec3 up = hit.position / r;
   L.altitude = static_cast<float>(r - earth::radius_m);
-  L.tau_vis = static_cast<float>(c.vis_props[si].extinction_per_m * hit.depth_m);
   const earth::Geodetic g = earth::geodetic(hit.position);
   const double mu_view = std::clamp(-glm::dot(up, dir), 0.05, 1.0);
   const double mu_sun = glm::dot(c.sun_dir, up);  // sine of the Sun's elevation here
   const double mu_normal = glm::dot(hit.normal, c.sun_dir);
   const double t_cloud = c.earth.temperature_k(g.lat_deg, g.lon_deg, L.altitude);
-  const Microphysics m = microphysics(c, si, g.lat_deg, g.lon_deg, L.altitude, hit.position, t_cloud);
+  const Microphysics m =
+      microphysics(c, si, g.lat_deg, g.lon_deg, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
+  // The visible optical depth along the line of sight, of the element's own microphysics.
+  L.tau_vis = static_cast<float>(
+      optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, optics::band("vis")).extinction_per_m *
+      hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
   // phase, that phase's typical value (0.86 droplets, 0.77 ice).
   const double asym =

@@ -13,7 +13,9 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/optics/optics.hpp"
+#include "nephos/render/job.hpp"
 #include "nephos/weather/reader.hpp"
+#include "nephos/weather/sampler.hpp"
 
 namespace nephos::render {
 namespace {
@@ -622,6 +624,52 @@ TEST(Renderer, StratifiedSubPixelRaysAreUniformInTheirSubPixels) {
   EXPECT_EQ(sub_pixel_offset(3, 4, 1, 2, 4, false, 11), std::make_pair(1.5 / 4, 2.5 / 4));
   EXPECT_EQ(sub_pixel_offset(3, 4, 1, 1, 3, true, 11), std::make_pair(0.5, 0.5));
   EXPECT_NE(sub_pixel_offset(3, 4, 0, 0, 3, true, 11), sub_pixel_offset(3, 4, 0, 0, 3, true, 12));
+}
+
+}  // namespace nephos::render
+
+namespace nephos::render {
+
+// The quick start's scene (every type, the default model but 128^3 textures for the test's time)
+// seen from GOES-East at 300 x 300 at 10.35 um: every pixel of optical depth above 30 within 50
+// deg of nadir is an opaque cloud, whose brightness temperature is its top's temperature less
+// what the air above absorbs and emits. Its median distance from GFS's temperature at the top
+// (weather::WeatherSampler: GFS's levels interpolated in ln p, a code path the renderer does not
+// use) must be within 2 K: the goal, about the window's atmospheric correction above
+// low clouds in the tropics (~1-2 K) and the LOWTRAN band model's error (~0.5 K).
+TEST(RendererOnGfs, OpaqueCloudsShowTheirTopsTemperature) {
+  const auto w =
+      weather::open_weather(std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2");
+  clouds::CloudModelParams params;
+  params.texture_size = 128;
+  const auto masks = weather::compute_masks(w, weather::MaskParams{});
+  const auto scene = clouds::build_scene(w, masks, params, SceneRequest::all_cloud_types(), 1);
+  const Sensor s = Sensor::geostationary(-75.2, 300, 300);
+  RenderParams rp;
+  rp.bands = {"lwir"};
+  const RenderImage img = render(scene, s, earth::sun_position(w.metadata().valid_time), rp, &w);
+  const weather::WeatherSampler sampler(w);
+  std::vector<double> diff;
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x) {
+      const std::size_t px = static_cast<std::size_t>(y) * s.width + x;
+      if (!(img.cloud_optical_depth[px] > 30)) continue;
+      const earth::Vec3 p = earth::ecef({img.latitude_deg[px], img.longitude_deg[px], img.cloud_top_altitude_m[px]});
+      const double mu = glm::dot(glm::normalize(p), glm::normalize(s.position - p));
+      if (mu < std::cos(50 * earth::deg)) continue;
+      const double t_top =
+          sampler.sample(img.latitude_deg[px], img.longitude_deg[px], img.cloud_top_altitude_m[px]).temperature_k;
+      diff.push_back(img.brightness_temperature[0][px] - t_top);
+    }
+  ASSERT_GT(diff.size(), 1000u);  // 2087 in this view
+  std::vector<double> abs_diff(diff.size());
+  for (std::size_t i = 0; i < diff.size(); ++i) abs_diff[i] = std::abs(diff[i]);
+  std::nth_element(abs_diff.begin(), abs_diff.begin() + static_cast<std::ptrdiff_t>(abs_diff.size() / 2),
+                   abs_diff.end());
+  std::nth_element(diff.begin(), diff.begin() + static_cast<std::ptrdiff_t>(diff.size() / 2), diff.end());
+  std::printf("[ measured ] %zu opaque pixels: median |BT - T_top| %.2f K, median BT - T_top %.2f K\n", diff.size(),
+              abs_diff[abs_diff.size() / 2], diff[diff.size() / 2]);
+  EXPECT_LE(abs_diff[abs_diff.size() / 2], 2.0);
 }
 
 }  // namespace nephos::render
