@@ -2,34 +2,92 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 
 #include "nephos/atmosphere/band_model.hpp"
 #include "nephos/atmosphere/clear_sky.hpp"
+#include "nephos/atmosphere/nnls.hpp"
 #include "nephos/atmosphere/profile.hpp"
 #include "nephos/atmosphere/rayleigh.hpp"
 
 namespace nephos::atmosphere {
 namespace {
 
+// The AFGL US standard atmosphere's columns, as published (Anderson et al. 1986, Table 1: 1.42
+// g cm^-2 of water vapour, 343 Dobson units of ozone). 1 %: the trapezoid rule on the table's 1
+// km levels.
 TEST(Profile, UsStandardColumnsOfWaterAndOzone) {
   const Profile& s = us_standard();
-  std::printf("US standard: PW %.3f kg m-2, O3 %.1f DU\n", s.precipitable_water_kg_m2(), s.total_ozone_du());
+  EXPECT_NEAR(s.precipitable_water_kg_m2(), 14.2, 0.15);
+  EXPECT_NEAR(s.total_ozone_du(), 343, 3.5);
 }
 
-TEST(BandModel, FitsPerBand) {
+// Murphy & Koop (2005): both saturation pressures pass through the triple point, 611.657 Pa at
+// 273.16 K (their eqs. 7 and 10 are fitted to it to 0.05 %); over water at 300 K, 3536.8 Pa
+// (their Table C1).
+TEST(Profile, SaturationVapourPressure) {
+  EXPECT_NEAR(saturation_pressure_water_pa(273.16), 611.657, 0.3);
+  EXPECT_NEAR(saturation_pressure_ice_pa(273.16), 611.657, 0.3);
+  EXPECT_NEAR(saturation_pressure_water_pa(300.0), 3536.8, 2);
+  EXPECT_LT(saturation_pressure_ice_pa(253.15), saturation_pressure_water_pa(253.15));  // supercooled water
+}
+
+// Rayleigh optical depth from first principles against the two published closed forms: Bodhaine
+// et al.'s own fit of their calculation (their eq. 30, at sea level, 45 deg, 360 ppm CO2; within
+// 5e-4 from 0.25 to 1 um: their fit's residual, 4.6e-4 at 1 um), and in the ABI's solar bands
+// Hansen & Travis (1974, eq. 2.29: 0.008569 lambda^-4 (1 + 0.0113 lambda^-2 + 0.00013
+// lambda^-4)), from an older refractive index and depolarisation: within 0.5 % from 0.4 um
+// (1.9 % at 0.25 um).
+TEST(Rayleigh, OpticalDepthAgainstBodhaineAndHansenTravis) {
+  for (double l : {0.25, 0.3, 0.4, 0.47, 0.55, 0.64, 0.865, 1.0}) {
+    const double tau = rayleigh_optical_depth(l);
+    EXPECT_NEAR(tau / rayleigh_optical_depth_fit(l), 1.0, 5e-4) << l;
+    const double ht = 0.008569 * std::pow(l, -4) * (1 + 0.0113 * std::pow(l, -2) + 0.00013 * std::pow(l, -4));
+    if (l >= 0.4) EXPECT_NEAR(tau / ht, 1.0, 0.005) << l;
+  }
+  // Proportional to the pressure above (a 500 hPa level holds half).
+  EXPECT_NEAR(rayleigh_optical_depth(0.55, 50662.5) / rayleigh_optical_depth(0.55), 0.5, 1e-12);
+  // The phase function's mean over the sphere is 1.
+  double mean = 0;
+  for (int i = 0; i < 2000; ++i) mean += rayleigh_phase(-1 + (i + 0.5) / 1000.0) / 2000;
+  EXPECT_NEAR(mean, 1.0, 1e-6);
+}
+
+// NNLS on a problem with a known non-negative solution and one whose unconstrained solution
+// has a negative coordinate (Lawson & Hanson's optimality: the gradient of the active set's
+// coordinates points outwards).
+TEST(BandModel, NonNegativeLeastSquares) {
+  const std::vector<double> a = {1, 0, 0, 1, 1, 1};  // 3 x 2
+  const std::vector<double> x = nnls(a, {1, 2, 3}, 3, 2);
+  EXPECT_NEAR(x[0], 1, 1e-12);
+  EXPECT_NEAR(x[1], 2, 1e-12);
+  const std::vector<double> y = nnls(a, {-1, 2, 1}, 3, 2);  // unconstrained: (-1, 2)
+  EXPECT_EQ(y[0], 0);
+  EXPECT_NEAR(y[1], 1.5, 1e-12);  // min (y1 - 2)^2 + (y1 - 1)^2
+}
+
+// Every band's fitted sums of exponentials reproduce the LOWTRAN 7 band model's own band-mean
+// transmittance to the fit's tolerance (0.002) over the amounts a path can hold; a gas left out
+// absorbs less than that along the longest path.
+TEST(BandModel, FitsReproduceTheBandModel) {
   for (const optics::Band& b : optics::bands()) {
     const BandGasModel& m = gas_model(b);
-    int terms = 0;
-    for (const auto& s : m.sub)
-      for (const auto& g : s.gas) terms += g.n;
-    std::printf("%-7s %zu sub-bands, %d terms, fit error %.4f\n", b.name.c_str(), m.sub.size(), terms, m.fit_error);
+    EXPECT_LE(m.fit_error, 0.0021) << b.name;
+    double weight = 0;
+    for (const SubBand& s : m.sub) weight += s.weight;
+    EXPECT_NEAR(weight, 1.0, 1e-12) << b.name;
+    // Spot check away from the fit's own grid: water vapour in the 6.2 um band.
+    if (b.name == "wv62")
+      for (const SubBand& s : m.sub)
+        for (double w : {3e-4, 7e-3, 0.13, 2.2})
+          EXPECT_NEAR(s.gas[0].transmittance(w), band_model_transmittance(Gas::h2o, s.nu_lo_cm1, s.nu_hi_cm1, w),
+                      0.0021);
   }
 }
 
 // The US standard atmosphere on levels every dz metres up to 60 km (log-pressure, linear
-// temperature and mixing ratios between its 1 km levels), its water vapour scaled by h2o_scale.
-Profile fine_us_standard(double dz, double h2o_scale = 1, double t_surface_offset = 0) {
+// temperature and mixing ratios between its 1 km levels), its water vapour below 12 km scaled
+// by h2o_scale and its lowest 10 km warmed by dt (fading with height).
+Profile fine_us_standard(double dz, double h2o_scale = 1, double dt = 0) {
   const Profile& s = us_standard();
   Profile f;
   for (double z = 0; z <= 60e3; z += dz) {
@@ -39,7 +97,7 @@ Profile fine_us_standard(double dz, double h2o_scale = 1, double t_surface_offse
     auto lin = [&](const std::vector<double>& v) { return v[hi - 1] + u * (v[hi] - v[hi - 1]); };
     f.z_m.push_back(z);
     f.p_pa.push_back(std::exp(std::log(s.p_pa[hi - 1]) + u * (std::log(s.p_pa[hi]) - std::log(s.p_pa[hi - 1]))));
-    f.t_k.push_back(lin(s.t_k) + t_surface_offset * std::max(0.0, 1 - z / 10e3));
+    f.t_k.push_back(lin(s.t_k) + dt * std::max(0.0, 1 - z / 10e3));
     f.h2o_vmr.push_back(lin(s.h2o_vmr) * (z < 12e3 ? h2o_scale : 1.0));
     f.o3_vmr.push_back(lin(s.o3_vmr));
   }
@@ -47,53 +105,64 @@ Profile fine_us_standard(double dz, double h2o_scale = 1, double t_surface_offse
   return f;
 }
 
-TEST(ClearSky, UsStandardNadir) {
+// The clear-sky weighting functions d t / d ln p of the water-vapour bands at nadir in the US
+// standard atmosphere peak where NOAA's GOES-16 ABI band guides put them: band 8 (6.2 um) ~340
+// hPa, band 9 (6.9 um) ~440 hPa, band 10 (7.3 um) ~615 hPa. 50 hPa: LOWTRAN 7's 20 cm^-1 band
+// model and a flat response between the nominal band edges, not the measured one (band 10's
+// edges are its 50 % points).
+TEST(ClearSky, WaterVapourWeightingFunctionsPeakWhereAbiDocumentsThem) {
   const Profile s = fine_us_standard(100);
-  for (const optics::Band& b : optics::bands()) {
-    const ClearSkyColumn c = clear_sky_column(s, b, {1.0, 1.0, 1e6}, 45);
-    double peak_p = 0, peak = -1;
+  for (const auto& [name, peak_hpa] : {std::pair{"wv62", 340.0}, {"wv69", 440.0}, {"wv73", 615.0}}) {
+    const ClearSkyColumn c = clear_sky_column(s, optics::band(name), {1.0, -1.0, 1e6}, 45);
+    double best = -1, at = 0;
     for (std::size_t k = 0; k + 1 < c.z_m.size(); ++k) {
       const double wf = (c.t_view[k + 1] - c.t_view[k]) / std::log(s.p_pa[k] / s.p_pa[k + 1]);
-      if (wf > peak) peak = wf, peak_p = std::sqrt(s.p_pa[k] * s.p_pa[k + 1]);
+      if (wf > best) best = wf, at = std::sqrt(s.p_pa[k] * s.p_pa[k + 1]) / 100;
     }
-    const double bt = b.thermal ? optics::band_brightness_temperature(b, clear_sky_radiance(c, b, s.t_k[0])) : 0;
-    std::printf("%-7s t_surface %.3f t2 %.3f tauR %.4f peak %.0f hPa BT %.2f\n", b.name.c_str(), c.t_view.front(),
-                c.t_solar.front(), c.tau_rayleigh.front(), peak_p / 100, bt);
+    std::printf("[ measured ] %s weighting function peak %.0f hPa (ABI guide: %.0f)\n", name, at, peak_hpa);
+    EXPECT_NEAR(at, peak_hpa, 50) << name;
   }
+}
+
+// The split window: the clear-sky brightness temperature difference BT(10.35) - BT(12.3) grows
+// with the column's water vapour (more absorption at 12.3 um: the water-vapour continuum and
+// lines). The US standard atmosphere with its surface 10 K warmer and its water vapour scaled
+// from 0.36 to 4.3 cm; published split-window differences for 11-12 um pairs run from under 1
+// K in dry air to 3-5 K in tropical moisture (e.g. Kleespies & McMillin 1990, J. Appl. Meteor.
+// 29, 851, their Fig. 3; ABI's 10.35/12.3 pair is more widely split): below 1.5 K at 0.36 cm,
+// 2.5-7 K at 4.3 cm.
+TEST(ClearSky, SplitWindowGrowsWithPrecipitableWater) {
+  double previous = -1;
+  std::vector<std::pair<double, double>> sw;
+  for (double scale : {0.25, 0.5, 1.0, 2.0, 3.0}) {
+    const Profile s = fine_us_standard(100, scale, 10);
+    auto bt = [&](const char* band) {
+      const optics::Band& b = optics::band(band);
+      const ClearSkyColumn c = clear_sky_column(s, b, {1.0, -1.0, 1e6}, 45);
+      return optics::band_brightness_temperature(b, clear_sky_radiance(c, b, s.t_k[0]));
+    };
+    const double d = bt("lwir") - bt("lwir12");
+    sw.emplace_back(s.precipitable_water_kg_m2() / 10, d);
+    std::printf("[ measured ] precipitable water %.2f cm: split window %.2f K\n", sw.back().first, d);
+    EXPECT_GT(d, previous);
+    previous = d;
+  }
+  EXPECT_LT(sw.front().second, 1.5);
+  EXPECT_GT(sw.back().second, 2.5);
+  EXPECT_LT(sw.back().second, 7.0);
+}
+
+// Transmittance seen at an air mass m is the vertical one to the power m only for a grey
+// absorber; the band model's is larger (the strong lines saturate): along m = 2 the window
+// band's transmittance lies between t^2 and t.
+TEST(ClearSky, SlantPathsSaturate) {
+  const Profile& s = us_standard();
+  const optics::Band& b = optics::band("wv73");
+  const double t1 = clear_sky_column(s, b, {1.0, -1.0, 1e6}, 45).t_view[6];
+  const double t2 = clear_sky_column(s, b, {2.0, -1.0, 1e6}, 45).t_view[6];
+  EXPECT_GT(t2, t1 * t1);
+  EXPECT_LT(t2, t1);
 }
 
 }  // namespace
-}  // namespace nephos::atmosphere
-namespace nephos::atmosphere {
-TEST(BandModel, DebugFit) {
-  const optics::Band& b = optics::band(std::getenv("BAND") ? std::getenv("BAND") : "lwir");
-  const int gi = std::getenv("GAS") ? std::atoi(std::getenv("GAS")) : 0;
-  const BandGasModel& m = gas_model(b);
-  for (const auto& s : m.sub) {
-    const ExpSum& e = s.gas[gi];
-    std::printf("sub %g-%g n=%d\n", s.nu_lo_cm1, s.nu_hi_cm1, e.n);
-    for (int i = 0; i < e.n; ++i) std::printf("  k %g w %g\n", e.k[i], e.w[i]);
-    for (double x = -8; x <= 4; x += 0.5) {
-      const double w = std::pow(10.0, x);
-      std::printf("  W %8.3g model %.4f fit %.4f\n", w,
-                  band_model_transmittance(static_cast<Gas>(gi), s.nu_lo_cm1, s.nu_hi_cm1, w), e.transmittance(w));
-    }
-  }
-}
-}  // namespace nephos::atmosphere
-
-namespace nephos::atmosphere {
-TEST(ClearSky, SplitWindowDebug) {
-  for (double scale : {0.25, 0.5, 1.0, 2.0, 3.0}) {
-    const Profile s = fine_us_standard(100, scale, 10);
-    const auto c13 = clear_sky_column(s, optics::band("lwir"), {1.0, 1.0, 1e6}, 45);
-    const auto c15 = clear_sky_column(s, optics::band("lwir12"), {1.0, 1.0, 1e6}, 45);
-    const double b13 = optics::band_brightness_temperature(optics::band("lwir"),
-                                                           clear_sky_radiance(c13, optics::band("lwir"), s.t_k[0]));
-    const double b15 = optics::band_brightness_temperature(optics::band("lwir12"),
-                                                           clear_sky_radiance(c15, optics::band("lwir12"), s.t_k[0]));
-    std::printf("PW %.2f cm Ts %.1f BT13 %.2f BT15 %.2f SW %.2f\n", s.precipitable_water_kg_m2() / 10, s.t_k[0], b13,
-                b15, b13 - b15);
-  }
-}
 }  // namespace nephos::atmosphere

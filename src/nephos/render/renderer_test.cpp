@@ -14,6 +14,7 @@
 #include "nephos/core/parallel.hpp"
 #include "nephos/optics/optics.hpp"
 #include "nephos/render/job.hpp"
+#include "nephos/render/shadows.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/sampler.hpp"
 
@@ -670,6 +671,69 @@ TEST(RendererOnGfs, OpaqueCloudsShowTheirTopsTemperature) {
   std::printf("[ measured ] %zu opaque pixels: median |BT - T_top| %.2f K, median BT - T_top %.2f K\n", diff.size(),
               abs_diff[abs_diff.size() / 2], diff[diff.size() / 2]);
   EXPECT_LE(abs_diff[abs_diff.size() / 2], 2.0);
+}
+
+}  // namespace nephos::render
+
+namespace nephos::render {
+
+// A cloud's shadow lies h tan(zenith) beyond it, on the side away from the Sun: a layer from 1
+// to 3 km west of an edge (the mask 1 west of longitude 0, 0 east; a 1024^2-per-face cube map,
+// its 0.5 crossing found on the equator with the shell's own lookup) and the Sun 60 deg from the
+// zenith in the east. Ground points on the equator are shadowed exactly where their sunward ray
+// meets the cloud's base: west of the edge by 1000 m tan(60 deg) = 1732 m (on the sphere: where
+// the ray crosses the 1 km sphere, computed exactly). Within one step of the shadow march along
+// the ray (2000 m / cos 60 deg / 12 steps, ~290 m across) the cloud length rises from zero; far
+// into the shadow it is the layer's chord along the ray.
+TEST(Shadows, ACloudsShadowIsOffsetByHeightTimesTanZenith) {
+  CloudTypeParams p;
+  p.shell_bottom_m = 1000, p.shell_top_m = 3000;
+  p.fractals = {};
+  p.calibrate = false;
+  p.bias = 0.0, p.mask_weight = 1.0, p.altitude_scale = 0.0, p.threshold = 0.5, p.min_mask = 0.0;
+  auto cube = std::make_shared<clouds::CubeMap<float>>(1024);
+  for (int f = 0; f < 6; ++f)
+    for (int j = 0; j < 1024; ++j)
+      for (int i = 0; i < 1024; ++i) cube->texel(f, i, j) = cube->texel_direction(f, i, j).y < 0 ? 1.0f : 0.0f;
+  const CloudShell shell(weather::CloudType::low_stratus, p, tiny_textures(), cube,
+                         std::vector<clouds::DisplacementMap>(4));
+  // The edge: where the mask crosses 0.5 along the equator (longitude east positive, y > 0).
+  double lo = -0.5, hi = 0.5;
+  for (int it = 0; it < 60; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (shell.mask_at(earth::unit_from_latlon(0, mid) * earth::radius_m) > 0.5 ? lo : hi) = mid;
+  }
+  const double edge_deg = 0.5 * (lo + hi);
+  const earth::Vec3 up0 = earth::unit_from_latlon(0, edge_deg);
+  const earth::Vec3 sun =
+      glm::normalize(std::cos(60 * earth::deg) * up0 + std::sin(60 * earth::deg) * earth::local_east(up0));
+  // Ground points every 20 m across the expected shadow edge.
+  std::vector<earth::Vec3> ground;
+  std::vector<double> x_m;
+  for (double x = -7000; x <= 1000; x += 20) {
+    x_m.push_back(x);
+    ground.push_back(earth::unit_from_latlon(0, edge_deg + x / earth::radius_m / earth::deg) * earth::radius_m);
+  }
+  std::vector<double> len(ground.size());
+  cloud_length_towards(shell, ground.data(), sun, ground.size(), 12, len.data());
+  // Expected: the first point whose sunward ray meets the 1 km sphere west of the edge.
+  double expected_edge = 0;
+  for (std::size_t i = 0; i < ground.size(); ++i) {
+    const auto hit = earth::ray_sphere(ground[i], sun, earth::radius_m + 1000);
+    const earth::Geodetic g = earth::geodetic(ground[i] + hit->t1 * sun);
+    if (g.lon_deg < edge_deg) expected_edge = x_m[i];
+  }
+  EXPECT_NEAR(expected_edge, -1000 * std::tan(60 * earth::deg), 25);  // the flat-Earth h tan(theta)
+  double measured_edge = 0;
+  for (std::size_t i = 0; i < ground.size(); ++i)
+    if (len[i] > 0) measured_edge = x_m[i];
+  std::printf("[ measured ] shadow edge %.0f m west of the cloud's edge (expected %.0f m)\n", -measured_edge,
+              -expected_edge);
+  EXPECT_NEAR(measured_edge, expected_edge, 300);
+  const auto outer = earth::ray_sphere(ground.front(), sun, earth::radius_m + 3000);
+  const auto inner = earth::ray_sphere(ground.front(), sun, earth::radius_m + 1000);
+  // 7 km west: the whole chord through the layer lies west of the edge (3 km tan 60 deg = 5.2 km).
+  EXPECT_NEAR(len.front(), outer->t1 - inner->t1, 1e-6 * (outer->t1 - inner->t1));
 }
 
 }  // namespace nephos::render
