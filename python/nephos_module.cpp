@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/config.hpp"
@@ -82,6 +83,20 @@ class Weather {
     std::vector<double> v(static_cast<std::size_t>(w_.grid().nlon));
     for (int i = 0; i < w_.grid().nlon; ++i) v[static_cast<std::size_t>(i)] = w_.grid().lon(i);
     return to_array(v, {w_.grid().nlon});
+  }
+  // A single-level field by its GRIB shortName and typeOfLevel, in WeatherGrid's unit.
+  py::array_t<float> field(const std::string& short_name, const std::string& level_type) const {
+    for (const auto& si : weather::all_surface_fields())
+      if (short_name == si.grib_short_name && level_type == si.grib_level_type) {
+        if (!w_.has(si.field))
+          throw ValueError(fmt::format("the weather has no {} at {}", short_name, level_type), {.key = "short_name"});
+        return to_array(w_.surface(si.field), {w_.grid().nlat, w_.grid().nlon});
+      }
+    std::vector<std::string> known;
+    for (const auto& si : weather::all_surface_fields())
+      known.push_back(fmt::format("{}@{}", si.grib_short_name, si.grib_level_type));
+    throw ValueError(fmt::format("no single-level field {}@{} (known: {})", short_name, level_type, fmt::join(known, ", ")),
+                     {.key = "short_name"});
   }
 
  private:
@@ -447,6 +462,9 @@ void def_weather_and_scene(py::module_& m) {
           "shape", [](const Weather& w) { return std::make_pair(w.grid().grid().nlat, w.grid().grid().nlon); })
       .def_property_readonly("latitudes", &Weather::latitudes, "Row latitudes [deg], south to north.")
       .def_property_readonly("longitudes", &Weather::longitudes, "Column longitudes [deg east].")
+      .def("field", &Weather::field, py::arg("short_name"), py::arg("level_type") = "surface",
+           "A single-level field (nlat, nlon): the surface, column, tropopause, GFS's cloud tops and top-of-"
+           "atmosphere fluxes (e.g. field('ulwrf', 'nominalTop')), in SI units (albedo as a fraction).")
       .def("masks", &Weather::masks, py::arg("config") = py::none(),
            "The four cloud masks (Table 1) as {type: array (nlat, nlon)} of values in [0, 1]; `config` a TOML file "
            "as for `nephos masks --config`.")
@@ -592,6 +610,17 @@ PYBIND11_MODULE(nephos, m) {
   m.def(
       "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
       "Log lines (and warnings) on stderr, as the command line prints them.");
+  m.def(
+      "sun",
+      [](const std::string& time) {
+        const earth::SunPosition sp = earth::sun_position(parse_time(time, "time"));
+        py::dict d;
+        d["subsolar_latitude_deg"] = sp.subsolar_lat_deg;
+        d["subsolar_longitude_deg"] = sp.subsolar_lon_deg;
+        d["distance_au"] = sp.distance_au;
+        return d;
+      },
+      py::arg("time"), "The Sun at an ISO 8601 UTC time: subsolar point [deg] and distance [AU].");
   m.def(
       "bands",
       [] {

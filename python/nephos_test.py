@@ -202,6 +202,30 @@ def read_png_rgb8(path):
     return out.astype(np.uint8).reshape(height, width, 3)
 
 
+class RadiationAgainstGfs(unittest.TestCase):
+    # scripts/validate_radiation.py at the CI's small configuration (300 x 300, 64^3 textures):
+    # nephos's outgoing long-wave flux and albedo against GFS's own (ulwrf, uswrf at nominalTop)
+    # on the embedded date. It measures r 0.80 and bias -0.9 W m-2 (long wave), r 0.72 and bias
+    # -0.013 (albedo); the full configuration (800 x 800, 256^3) 0.85 / -3.3 and 0.71 / -0.007
+    # (docs/VALIDATION.md). The bounds sit 0.05 below the correlations and at the issue's +-10
+    # W m-2 for the bias: a regression in the radiometry (a band's solar irradiance, the
+    # atmosphere's emission, the surface) moves them further. A consistency check with GFS's
+    # radiation code, not a validation of realism.
+    def test_top_of_atmosphere_fluxes(self):
+        import json
+        script = Path(__file__).resolve().parent.parent / "scripts" / "validate_radiation.py"
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run([sys.executable, str(script), str(SAMPLE), d, "--size", "300", "--texture", "64"],
+                               capture_output=True, text=True, env=dict(os.environ))
+            self.assertEqual(r.returncode, 0, r.stderr)
+            s = json.loads((Path(d) / "summary.json").read_text())
+            self.assertTrue((Path(d) / "olr.png").read_bytes().startswith(b"\x89PNG"))
+        self.assertGreater(s["olr"]["correlation"], 0.75)
+        self.assertLess(abs(s["olr"]["bias"]), 10.0)
+        self.assertGreater(s["albedo"]["correlation"], 0.67)
+        self.assertLess(abs(s["albedo"]["bias"]), 0.05)
+
+
 class Lbm(unittest.TestCase):
     def test_the_stages_equal_nephos_lbm_bit_for_bit(self):
         # The pipeline of `nephos lbm` composed in Python: water model, percolation, lighting and

@@ -1,0 +1,191 @@
+#!/usr/bin/python3
+"""nephos's top-of-atmosphere radiation against GFS's own, on the GFS grid (docs/VALIDATION.md).
+
+Renders a full disc at the weather's valid time in ABI bands 1-6 and 14, turns each pixel into
+broadband quantities and averages them onto the weather's 2.5 deg cells:
+
+  outgoing long-wave flux  F = sigma T_f^4, T_f = T_b (a + b T_b), T_b the 11.2 um brightness
+                           temperature, a = 1.228, b = -1.106e-3 K^-1 (Ohring, Gruber & Ellingson
+                           1984, J. Clim. Appl. Meteor. 23, 416: NOAA's operational OLR from the
+                           AVHRR window channel)
+  albedo                   the bands' reflectance factors pi L / (E mu0), weighted by the share of
+                           the solar spectrum each stands for (0.30, 0.22, 0.26, 0.06, 0.09, 0.07
+                           for bands 1-6: ASTM G173 over 0.3-0.55, 0.55-0.75, 0.75-1.2, 1.2-1.45,
+                           1.45-1.9 and 1.9-4 um)
+
+and compares them, area-weighted over the cells the sensor sees within 70 deg of nadir, with
+GFS's own 6-hour means: ulwrf at nominalTop over the GOES-East disc (a geostationary sensor at
+75.2 W), and uswrf at nominalTop over the insolation of the same 6 hours on the cells lit
+throughout them, seen from a geostationary sensor under the Sun at the window's middle (GOES-East
+sees little daylight at 00 and 12 UTC). GFS's fluxes come from its radiation code (RRTMG) and its
+own clouds: a reference that owes nothing to nephos.
+
+Usage: PYTHONPATH=build/python scripts/validate_radiation.py WEATHER OUTDIR [--size N] [--texture N]
+Writes OUTDIR/summary.json and OUTDIR/{olr,albedo}.png (nephos left, GFS right).
+"""
+import argparse
+import json
+import math
+import struct
+import sys
+import zlib
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+
+import nephos
+
+SOLAR_CONSTANT = 1361.0  # W m-2 at 1 AU (Kopp & Lean 2011)
+STEFAN_BOLTZMANN = 5.670374419e-8
+OHRING_A, OHRING_B = 1.228, -1.106e-3
+SOLAR_BANDS = ["blue", "vis", "nir", "cirrus", "swir16", "swir22"]
+SOLAR_WEIGHTS = np.array([0.30, 0.22, 0.26, 0.06, 0.09, 0.07])
+GEO_LON, GEO_RADIUS_M, EARTH_RADIUS_M = -75.2, 42164.0e3, 6371008.8
+MAX_VZA = 70.0  # deg: cells the sensor sees at most this far from nadir
+
+
+def unit(lat, lon):
+    la, lo = np.radians(lat), np.radians(lon)
+    return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], axis=-1)
+
+
+def view_zenith_deg(lat, lon, sat_lon):
+    up = unit(lat, lon)
+    sat = GEO_RADIUS_M * unit(0.0, sat_lon)
+    to_sat = sat - EARTH_RADIUS_M * up
+    to_sat /= np.linalg.norm(to_sat, axis=-1, keepdims=True)
+    return np.degrees(np.arccos(np.clip(np.sum(up * to_sat, axis=-1), -1, 1)))
+
+
+def cos_sun_zenith(lat, lon, time):
+    s = nephos.sun(time.strftime("%Y-%m-%dT%H:%M:%SZ"))
+    return np.sum(unit(lat, lon) * unit(s["subsolar_latitude_deg"], s["subsolar_longitude_deg"]), axis=-1), s
+
+
+def grid_mean(values, lat, lon, lats, lons):
+    """The mean of the finite pixel values in each weather cell (nearest node), and their count."""
+    dlat, dlon = lats[1] - lats[0], lons[1] - lons[0]
+    ok = np.isfinite(values) & np.isfinite(lat) & np.isfinite(lon)
+    j = np.rint((np.where(ok, lat, lats[0]) - lats[0]) / dlat).astype(int)
+    i = np.rint(((np.where(ok, lon, lons[0]) - lons[0]) % 360) / dlon).astype(int) % len(lons)
+    ok &= (j >= 0) & (j < len(lats))
+    total = np.zeros((len(lats), len(lons)))
+    count = np.zeros_like(total)
+    np.add.at(total, (j[ok], i[ok]), values[ok])
+    np.add.at(count, (j[ok], i[ok]), 1)
+    with np.errstate(invalid="ignore"):
+        return total / count, count
+
+
+def weighted_stats(a, b, w):
+    ok = np.isfinite(a) & np.isfinite(b) & (w > 0)
+    a, b, w = a[ok], b[ok], w[ok]
+    ma, mb = np.average(a, weights=w), np.average(b, weights=w)
+    cov = np.average((a - ma) * (b - mb), weights=w)
+    r = cov / math.sqrt(np.average((a - ma) ** 2, weights=w) * np.average((b - mb) ** 2, weights=w))
+    return {"cells": int(ok.sum()), "correlation": float(r), "bias": float(ma - mb), "nephos_mean": float(ma),
+            "gfs_mean": float(mb)}
+
+
+def write_png(path, rgb):
+    """An 8-bit RGB PNG (zlib and the PNG chunk format, no image library)."""
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\x00" + rgb[y].astype(np.uint8).tobytes() for y in range(h))
+
+    def chunk(kind, data):
+        c = struct.pack(">I", len(data)) + kind + data
+        return c + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
+    Path(path).write_bytes(png)
+
+
+def colour(field, lo, hi):
+    """Dark blue - white - dark red, grey where NaN; north up."""
+    x = np.clip((field - lo) / (hi - lo), 0, 1)
+    r = np.where(x < 0.5, 2 * x, 1.0)
+    g = np.where(x < 0.5, 2 * x, 2 - 2 * x)
+    b = np.where(x < 0.5, 1.0, 2 - 2 * x)
+    rgb = np.stack([r, g, b], axis=-1) * 235 + 10
+    rgb[~np.isfinite(field)] = 128
+    return rgb[::-1]
+
+
+def side_by_side(path, a, b, lo, hi, rows, cols, scale=4):
+    pa, pb = colour(a[rows][:, cols], lo, hi), colour(b[rows][:, cols], lo, hi)
+    gap = np.full((pa.shape[0], 2, 3), 255.0)
+    img = np.concatenate([pa, gap, pb], axis=1)
+    write_png(path, np.repeat(np.repeat(img, scale, axis=0), scale, axis=1))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("weather")
+    ap.add_argument("out")
+    ap.add_argument("--size", type=int, default=600)
+    ap.add_argument("--texture", type=int, default=128)
+    args = ap.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    w = nephos.Weather(args.weather)
+    valid = datetime.strptime(w.valid_time, "%Y-%m-%dT%H:%M:%SZ").replace(tzinfo=timezone.utc)
+    scene = nephos.Scene(w, texture=args.texture, seed=1)
+    size = (args.size, args.size)
+    # Long wave over the GOES-East disc.
+    img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"])
+    tb = img["brightness_temperature_lwir11"]
+    olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
+    olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
+    # Short wave under the Sun at the window's middle: each band's reflectance factor, weighted.
+    _, mid_sun = cos_sun_zenith(0.0, 0.0, valid - timedelta(hours=3))
+    sw_lon = round(mid_sun["subsolar_longitude_deg"], 1)
+    sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS)
+    lat, lon = sw["latitude"], sw["longitude"]
+    mu0, sun = cos_sun_zenith(lat, lon, valid)
+    bands = {b["name"]: b for b in nephos.bands()}
+    refl = np.zeros_like(lat)
+    for weight, name in zip(SOLAR_WEIGHTS, SOLAR_BANDS):
+        e = bands[name]["solar_irradiance_w_m2_um"] / sun["distance_au"] ** 2
+        refl += weight * np.pi * sw["radiance_" + name] / (e * np.maximum(mu0, 1e-6))
+    albedo = np.where((view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & (mu0 > 0.1), refl / SOLAR_WEIGHTS.sum(), np.nan)
+    lats, lons = w.latitudes, w.longitudes
+    olr_grid, n_olr = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
+    alb_grid, n_alb = grid_mean(albedo, lat, lon, lats, lons)
+    la, lo = np.meshgrid(lats, lons, indexing="ij")
+    area = np.cos(np.radians(la))
+    # GFS: outgoing long-wave; short wave over the insolation of its 6-hour window, on cells lit
+    # throughout it (the Sun above 5 deg at every one of 37 instants).
+    gfs_olr = w.field("ulwrf", "nominalTop")
+    insolation = np.zeros_like(la)
+    lit = np.ones_like(la, dtype=bool)
+    for k in range(37):
+        m, s = cos_sun_zenith(la, lo, valid - timedelta(hours=6) + timedelta(minutes=10 * k))
+        insolation += SOLAR_CONSTANT / s["distance_au"] ** 2 * np.maximum(m, 0) / 37
+        lit &= m > math.sin(math.radians(5))
+    gfs_albedo = np.where(lit, w.field("uswrf", "nominalTop") / np.maximum(insolation, 1e-6), np.nan)
+    olr_grid[n_olr < 20] = np.nan
+    alb_grid[n_alb < 20] = np.nan
+    summary = {
+        "weather": w.source, "valid_time": w.valid_time, "size": args.size, "texture": args.texture,
+        "longwave_sensor": f"geo:{GEO_LON}", "shortwave_sensor": f"geo:{sw_lon}",
+        "olr": weighted_stats(olr_grid, gfs_olr, area),
+        "albedo": weighted_stats(alb_grid, gfs_albedo, area),
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    rows = np.where((lats >= -70) & (lats <= 70))[0]
+
+    def columns(centre):
+        order = np.argsort((lons - centre + 180) % 360)
+        return order[np.abs((lons[order] - centre + 180) % 360 - 180) <= 75]
+
+    side_by_side(out / "olr.png", olr_grid, np.where(np.isfinite(olr_grid), gfs_olr, np.nan), 100, 320, rows,
+                 columns(GEO_LON))
+    side_by_side(out / "albedo.png", alb_grid, np.where(np.isfinite(alb_grid), gfs_albedo, np.nan), 0, 0.8, rows,
+                 columns(sw_lon))
+    print(json.dumps(summary, indent=2))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
