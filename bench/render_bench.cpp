@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -45,6 +46,72 @@ std::vector<ShellPass> time_shells(const clouds::CloudScene& scene, const render
 ShellPass time_shell(const clouds::CloudScene& scene, const render::Sensor& sensor, const earth::SunPosition& sun,
                      const render::RenderParams& rp, const weather::WeatherGrid& w, int repeat) {
   return time_shells(scene, sensor, sun, rp, w, repeat).at(0);
+}
+
+// The whole render() of `scene` [ms] per variant of `params`, the variants in turn within each
+// repetition (paired: a slow moment of the machine slows all of them alike); medians.
+std::vector<double> time_variants(const clouds::CloudScene& scene, const render::Sensor& sensor,
+                                  const earth::SunPosition& sun, const std::vector<render::RenderParams>& variants,
+                                  const weather::WeatherGrid& w, int repeat) {
+  std::vector<std::vector<double>> ms(variants.size());
+  for (int r = 0; r < repeat; ++r)
+    for (std::size_t v = 0; v < variants.size(); ++v) {
+      const auto t0 = std::chrono::steady_clock::now();
+      render::render(scene, sensor, sun, variants[v], &w);
+      ms[v].push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+  std::vector<double> out;
+  for (auto& m : ms) out.push_back(median(std::move(m)));
+  return out;
+}
+
+// The RMS difference between two images' visible radiance and 10.35 um brightness temperature
+// (bands vis, lwir) over the pixels that see the Earth in both.
+std::pair<double, double> rms_difference(const render::RenderImage& a, const render::RenderImage& b) {
+  double sv = 0, st = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.radiance[0].size(); ++i) {
+    if (!std::isfinite(a.latitude_deg[i]) || !std::isfinite(b.latitude_deg[i])) continue;
+    const double dv = a.radiance[0][i] - b.radiance[0][i];
+    const double dt = a.brightness_temperature[1][i] - b.brightness_temperature[1][i];
+    sv += dv * dv, st += dt * dt, ++n;
+  }
+  return {std::sqrt(sv / static_cast<double>(std::max<std::size_t>(n, 1))),
+          std::sqrt(st / static_cast<double>(std::max<std::size_t>(n, 1)))};
+}
+
+// What each part of the imagery costs, at the every-type configuration: the whole render with
+// everything on, then without filtering, shadows, and the atmosphere in turn.
+void print_costs(const clouds::CloudScene& every, const render::Sensor& sensor, const earth::SunPosition& sun,
+                 const weather::WeatherGrid& w, int repeat) {
+  render::RenderParams on, no_filter, no_shadows, no_atmosphere;
+  no_filter.filter = false, no_shadows.shadows = false, no_atmosphere.atmosphere = false;
+  const std::vector<double> ms =
+      time_variants(every, sensor, sun, {on, no_filter, no_shadows, no_atmosphere}, w, repeat);
+  std::cout << fmt::format(
+      "costs at {0}^2, every type (the whole render, median of {1}, the variants in turn): all on {2:.0f} ms; "
+      "without filtering {3:.0f} ms, filtering {4:.2f}x the unfiltered 1-ray time (goal <= 1.30); without shadows "
+      "{5:.0f} ms, shadows {6:.2f}x; without the atmosphere (gases, Rayleigh) {7:.0f} ms, atmosphere {8:.2f}x\n",
+      sensor.width, repeat, ms[0], ms[1], ms[0] / ms[1], ms[2], ms[0] / ms[2], ms[3], ms[0] / ms[3]);
+}
+
+// Aliasing: a GEO full disc of every type at one ray per pixel, filtered and not, against the
+// mean of k^2 unfiltered rays per pixel (the footprint's average), visible radiance and 10.35 um.
+void print_aliasing(const clouds::CloudScene& every, int px, int k, const earth::SunPosition& sun,
+                    const weather::WeatherGrid& w) {
+  const render::Sensor sensor = render::Sensor::geostationary(-75.2, px, px);
+  render::RenderParams filtered, point, reference;
+  filtered.bands = point.bands = reference.bands = {"vis", "lwir"};
+  point.filter = reference.filter = false;
+  reference.samples_per_axis = k;
+  const render::RenderImage ref = render::render(every, sensor, sun, reference, &w);
+  const auto [fv, ft] = rms_difference(render::render(every, sensor, sun, filtered, &w), ref);
+  const auto [pv, pt] = rms_difference(render::render(every, sensor, sun, point, &w), ref);
+  std::cout << fmt::format(
+      "aliasing at {0}^2, every type, against {1} unfiltered rays per pixel: RMS difference of 1 ray per pixel, "
+      "filtered: visible {2:.1f} W m-2 sr-1 um-1 (goal <= 17), 10.35 um {3:.2f} K (goal <= 5); unfiltered: visible "
+      "{4:.1f}, 10.35 um {5:.2f} K\n",
+      px, k * k, fv, ft, pv, pt);
 }
 
 }  // namespace
@@ -158,6 +225,8 @@ int run_render_bench(const RenderBenchOptions& o, std::uint64_t seed) {
       "every cloud type at {}^2, 256^3, 25 steps (ms per shell): {}; mean {:.0f} against the seed's average per "
       "shell {:.0f} (ratio {:.2f})\n",
       px, line, mean, anchor, mean / anchor);
+  print_costs(every, render::Sensor::geostationary(-75.2, px, px), sun, w, o.repeat);
+  print_aliasing(every, o.quick ? 100 : 400, o.quick ? 4 : 8, sun, w);
   return 0;
 }
 

@@ -205,12 +205,12 @@ def read_png_rgb8(path):
 class RadiationAgainstGfs(unittest.TestCase):
     # scripts/validate_radiation.py at the CI's small configuration (300 x 300, 64^3 textures):
     # nephos's outgoing long-wave flux and albedo against GFS's own (ulwrf, uswrf at nominalTop)
-    # on the embedded date. It measures r 0.80 and bias -0.9 W m-2 (long wave), r 0.72 and bias
-    # -0.013 (albedo); the full configuration (800 x 800, 256^3) 0.85 / -3.3 and 0.71 / -0.007
-    # (docs/VALIDATION.md). The bounds sit 0.05 below the correlations and at the issue's +-10
-    # W m-2 for the bias: a regression in the radiometry (a band's solar irradiance, the
-    # atmosphere's emission, the surface) moves them further. A consistency check with GFS's
-    # radiation code, not a validation of realism.
+    # on the embedded date. It measures r 0.81 and bias -1.0 W m-2 (long wave), r 0.70 and bias
+    # -0.001 (albedo); the full configuration (800 x 800, 256^3) is in docs/VALIDATION.md. The
+    # bounds sit 0.05 below the correlations (the spread between texture sizes and image sizes
+    # is of that order) and at the issue's +-10 W m-2 for the bias: a regression in the
+    # radiometry (a band's solar irradiance, the atmosphere's emission, the surface) moves them
+    # further. A consistency check with GFS's radiation code, not a validation of realism.
     def test_top_of_atmosphere_fluxes(self):
         import json
         script = Path(__file__).resolve().parent.parent / "scripts" / "validate_radiation.py"
@@ -222,7 +222,7 @@ class RadiationAgainstGfs(unittest.TestCase):
             self.assertTrue((Path(d) / "olr.png").read_bytes().startswith(b"\x89PNG"))
         self.assertGreater(s["olr"]["correlation"], 0.75)
         self.assertLess(abs(s["olr"]["bias"]), 10.0)
-        self.assertGreater(s["albedo"]["correlation"], 0.67)
+        self.assertGreater(s["albedo"]["correlation"], 0.65)
         self.assertLess(abs(s["albedo"]["bias"]), 0.05)
 
 

@@ -196,7 +196,9 @@ class Render(unittest.TestCase):
         # Within the shells lifted to GFS's own cloud tops: up to the 18 km the lift allows.
         self.assertTrue(np.all((top[cloudy] >= 0) & (top[cloudy] <= 18000)))
         # One ray per pixel: the cloud fraction is 1 exactly where a cloud top was found, else 0.
-        self.assertTrue(np.array_equal(ds["cloud_fraction"].values, cloudy.astype(np.float32)))
+        # Filtered: the share of each pixel in cloud, in (0, 1] where a cloud was met, 0 elsewhere.
+        frac = ds["cloud_fraction"].values
+        self.assertTrue(np.all((frac[cloudy] > 0) & (frac[cloudy] <= 1)) and np.all(frac[~cloudy] == 0))
         self.assertEqual(ds.attrs["rays_per_pixel"], 1)
         self.assertEqual(ds.attrs["sub_pixel_sampling"], "centre")
         # Cold cloud tops: brightness temperature below the clear-sky surface's (~>270 K tropics).
@@ -230,8 +232,8 @@ class Render(unittest.TestCase):
             frac = {}
             for pattern, extra in (("stratified", []), ("grid", ["--sample-grid"])):
                 out = Path(d) / pattern
-                r = run("render", "--size", "24x24", "--samples", "4", *extra, "--texture", "64", "--types",
-                        "low_cumulus", "--bands", "vis", "--out", out)
+                r = run("render", "--size", "24x24", "--samples", "4", *extra, "--no-filter", "--texture", "64",
+                        "--types", "low_cumulus", "--bands", "vis", "--out", out)
                 self.assertEqual(r.returncode, 0, r.stderr)
                 self.assertIn("4 rays per pixel", r.stdout)
                 ds = netCDF4.Dataset(out / "render.nc")
@@ -242,12 +244,13 @@ class Render(unittest.TestCase):
             self.assertFalse(np.array_equal(frac["stratified"], frac["grid"]))
 
     def test_more_abi_bands(self):
-        # Six of the nine bands at once: a radiance for each, a brightness temperature for the
+        # Six of the sixteen bands at once: a radiance for each, a brightness temperature for the
         # thermal ones only, a preview each. By day the 3.9 um band adds reflected sunlight to a
         # cloud's emission, so sunlit clouds are warmer there than at 11.2 um (the daytime
         # BT(3.9) - BT(11) > 0 of water clouds that fog and low-cloud products use). Fault
-        # caught: no solar term at 3.9 um (the difference is then below 0). One-sided: the
-        # seed's slab overestimates it (+54 K, docs/render.md), which this does not bound.
+        # caught: no solar term at 3.9 um (the difference is then below 0). One-sided: it checks
+        # that the term is there, not its size (measured median 15 K; 23 K with the source
+        # paper's slab, asymmetry 0).
         import netCDF4
         import numpy as np
         bands = ["blue", "swir16", "swir22", "mwir", "lwir11", "lwir12"]

@@ -25,7 +25,7 @@ struct RenderOptions {
   int steps = 25;
   int samples = 1;
   bool sample_grid = false;
-  bool no_atmosphere = false, no_shadows = false;
+  bool no_atmosphere = false, no_shadows = false, no_filter = false;
   int texture = 0;
   std::string displace_hours;  // empty: per-type defaults
   double advance_hours = 0;
@@ -53,6 +53,7 @@ render::RenderRequest request_of(const RenderOptions& o, const GlobalOptions& g)
   r.view.sample_grid = o.sample_grid;
   r.view.atmosphere = !o.no_atmosphere;
   r.view.shadows = !o.no_shadows;
+  r.view.filter = !o.no_filter;
   if (!o.time.empty()) r.view.time = parse_time(o.time, "time");
   r.advance_hours = o.advance_hours;
   r.frames = o.frames;
@@ -104,6 +105,9 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
                  "comparison)");
   rend->add_flag("--no-shadows", o->no_shadows,
                  "Direct sunlight not dimmed by the clouds towards the Sun (for speed comparisons)");
+  rend->add_flag("--no-filter", o->no_filter,
+                 "Point samples of the fractal clouds, detail finer than a pixel not filtered (aliased; for "
+                 "comparison and supersampled references)");
   rend->add_option("--texture", o->texture,
                    "Fractal texture size N (N^3 voxels, power of two 8..1024; default 256 or the config's [textures] "
                    "size)");

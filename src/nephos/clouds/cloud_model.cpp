@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -19,8 +20,14 @@ FractalTextures FractalTextures::bake(const CloudModelParams& params, std::uint6
     while (s.octaves > 1 && (s.base_cells << (s.octaves - 1)) > n / 2) --s.octaves;
     return s;
   };
-  return {noise::bake(fit(params.coarse), hash(seed, 1), n), noise::bake(fit(params.fine), hash(seed, 2), n),
-          noise::bake(fit(params.worley), hash(seed, 3), n)};
+  return from(noise::bake(fit(params.coarse), hash(seed, 1), n), noise::bake(fit(params.fine), hash(seed, 2), n),
+              noise::bake(fit(params.worley), hash(seed, 3), n));
+}
+
+FractalTextures FractalTextures::from(noise::Texture3D coarse, noise::Texture3D fine, noise::Texture3D worley) {
+  FractalTextures t{std::move(coarse), std::move(fine), std::move(worley), {}};
+  for (int i = 0; i < 3; ++i) t.mips[static_cast<std::size_t>(i)] = noise::MipPyramid::of(t[i]);
+  return t;
 }
 
 CloudModelParams::CloudModelParams() {
@@ -237,23 +244,12 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
         static_cast<float>(p_.altitude_scale * std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m));
   }
   build_skip_map();
+  build_term_mips();
+  const std::vector<double> f = fractal_sample();
+  build_coverage(f);
+  build_detail_tables();
   if (p_.calibrate) {
-    // Quantiles of the fractal sum F over 32768 counter-hashed points, each texture sampled at
-    // its own independent position (the terms use unrelated length scales).
-    constexpr int n = 32768;
-    std::vector<double> f(n);
-    for (int s = 0; s < n; ++s) {
-      double sum = 0;
-      for (int i = 0; i < 3; ++i) {
-        const auto u = static_cast<std::uint64_t>(s);
-        sum += p_.fractals[static_cast<std::size_t>(i)].weight *
-               (*tex_)[i].sample(static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 0)),
-                                 static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 1)),
-                                 static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 2)));
-      }
-      f[static_cast<std::size_t>(s)] = sum;
-    }
-    std::sort(f.begin(), f.end());
+    const int n = static_cast<int>(f.size());
     // phi(m) = threshold - Q_F(1 - m) at 1024 intervals of m, Q_F the sample quantile (linear
     // between order statistics), so that CF > threshold where F > Q_F(1 - m): a fraction m.
     bias_ = 0;
@@ -264,6 +260,58 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
       const double q = f[i] + (at - static_cast<double>(i)) * (f[i + 1] - f[i]);
       mask_terms_[static_cast<std::size_t>(k)] = p_.threshold - q;
     }
+  }
+}
+
+std::vector<double> CloudShell::fractal_sample() const {
+  constexpr int n = 32768;
+  std::vector<double> f(n);
+  for (int s = 0; s < n; ++s) {
+    double sum = 0;
+    for (int i = 0; i < 3; ++i) {
+      const auto u = static_cast<std::uint64_t>(s);
+      sum += p_.fractals[static_cast<std::size_t>(i)].weight *
+             (*tex_)[i].sample(static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 0)),
+                               static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 1)),
+                               static_cast<float>(uniform01(99, u, static_cast<std::uint64_t>(i), 2)));
+    }
+    f[static_cast<std::size_t>(s)] = sum;
+  }
+  std::sort(f.begin(), f.end());
+  return f;
+}
+
+void CloudShell::build_coverage(const std::vector<double>& f) {
+  // Z = (F - mean) / sd with the mean and sd the filter uses (the voxels' mean and sigma_max_:
+  // where every term is averaged away, u = (b + mean - thr) / sd and coverage is exactly the
+  // sample's P(F > thr - b)); coverage(u) = P(Z > -u), the empirical exceedance (linear between
+  // order statistics), tabulated over [-max Z, -min Z].
+  double mean = 0;
+  for (const TermMips& tm : term_mips_) mean += tm.mean_weighted;
+  const double sd = sigma_max_;
+  coverage_.assign(coverage_intervals + 1, 0.0);
+  if (!(sd > 0)) {  // no fractal detail: a footprint is all on CF's side
+    u_min_ = -1e-9, u_max_ = 1e-9;
+    for (int k = 0; k <= coverage_intervals; ++k) coverage_[static_cast<std::size_t>(k)] = k >= coverage_intervals / 2;
+    return;
+  }
+  u_min_ = -(f.back() - mean) / sd, u_max_ = -(f.front() - mean) / sd;
+  const double nf = static_cast<double>(f.size() - 1);
+  for (std::size_t k = 0; k < z_nodes_.size(); ++k)
+    z_nodes_[k] = (f[static_cast<std::size_t>((static_cast<double>(k) + 0.5) / z_node_count * nf)] - mean) / sd;
+  for (int k = 0; k <= coverage_intervals; ++k) {
+    const double u = u_min_ + (u_max_ - u_min_) * k / coverage_intervals;
+    const double fz = mean - u * sd;  // F at Z = -u: P(F > fz)
+    const auto it = std::upper_bound(f.begin(), f.end(), fz);
+    const auto i = static_cast<std::size_t>(it - f.begin());  // f[i - 1] <= fz < f[i]
+    double below;                                             // the fractional rank of fz
+    if (i == 0)
+      below = 0;
+    else if (i == f.size())
+      below = nf;
+    else
+      below = static_cast<double>(i - 1) + (fz - f[i - 1]) / (f[i] - f[i - 1]);
+    coverage_[static_cast<std::size_t>(k)] = 1 - below / nf;
   }
 }
 
@@ -424,20 +472,150 @@ struct CloudShell::EvalWork {
   alignas(64) std::uint16_t words[eval_chunk];          // the current term's packed block bounds
   std::array<std::uint32_t, eval_chunk> sel, sel_next;  // compacted positions still undecided
   alignas(64) float texel[eval_chunk];                  // the current term's samples, in sel order
+  // Filtered only, per live point: sigma, each fractal's pyramid level (by fractal index), and
+  // per term (in order) the level's texture (null: the mean level).
+  alignas(64) double sigma[eval_chunk];
+  double u_min = 0, u_max = 0;  // the shell's range of u (CloudShell::u_min(), u_max())
+  std::uint8_t level[3][eval_chunk];
+  const noise::Texture3D* level_tex[3][eval_chunk];
   // Bounds of the terms from position t on: their local bounds' sum (sides fixed by the sign of
   // each weight).
   void rest(std::size_t a, std::size_t t, std::size_t nt, double& lo_sum, double& hi_sum) const {
     lo_sum = hi_sum = 0;
     for (std::size_t u = t; u < nt; ++u) lo_sum += lo[u][a], hi_sum += hi[u][a];
   }
+  // The side of the threshold the bounds [v + lo, v + hi] decide: filtered, beyond the reach of
+  // the sub-pixel detail (u outside [u_min, u_max]), else the threshold itself.
+  template <bool Filtered>
+  void decide(std::size_t a, double cf, double lo_rest, double hi_rest, double thr, bool& below, bool& above) const {
+    if constexpr (Filtered) {
+      below = (cf + hi_rest < thr + u_min * sigma[a]), above = (cf + lo_rest > thr + u_max * sigma[a]);
+    } else {
+      below = (cf + hi_rest < thr), above = (cf + lo_rest > thr);
+    }
+  }
+  // What a decided point returns: a bound on its side (classify()), or filtered an end of u.
+  template <bool Filtered>
+  double decided(double cf, double lo_rest, double hi_rest, bool below) const {
+    if constexpr (Filtered) return below ? u_min : u_max;
+    return cf + (below ? hi_rest : lo_rest);
+  }
+  // What an exact value returns: CF, or filtered, u = (CF - thr) / sigma within [u_min, u_max].
+  template <bool Filtered>
+  double exact(std::size_t a, double cf, double thr) const {
+    if constexpr (Filtered) {
+      if (!(sigma[a] > 0)) return cf > thr ? u_max : u_min;
+      return std::clamp((cf - thr) / sigma[a], u_min, u_max);
+    }
+    return cf;
+  }
 };
+
+namespace {
+
+// std::min and std::max by value (as in the renderer's vectorised loops: GCC 12 vectorises these).
+[[gnu::always_inline]] inline double min_v(double a, double b) { return b < a ? b : a; }
+[[gnu::always_inline]] inline double max_v(double a, double b) { return a < b ? b : a; }
+
+// log2(x) for x > 0 (normal), within 0.008: the exponent's bits and a quadratic in the
+// mantissa m in [1, 2) (log2 m ~ (m - 1)(1.3466 - 0.3466 (m - 1)), exact at m = 1 and 2). What
+// a pyramid level needs, without a library call per point.
+double fast_log2(double x) {
+  const auto bits = std::bit_cast<std::uint64_t>(x);
+  const double e = static_cast<double>(static_cast<int>((bits >> 52) & 0x7ff) - 1023);
+  const double f = std::bit_cast<double>((bits & 0x000fffffffffffffULL) | 0x3ff0000000000000ULL) - 1.0;
+  return e + f * (1.3466 - 0.3466 * f);
+}
+
+// A counter-based hash of a point's coordinates: the random rounding of its pyramid levels.
+std::uint64_t point_hash(const earth::Vec3& p) {
+  return mix64(std::bit_cast<std::uint64_t>(p.x) ^
+               mix64(std::bit_cast<std::uint64_t>(p.y) ^ mix64(std::bit_cast<std::uint64_t>(p.z))));
+}
+
+}  // namespace
+
+void CloudShell::build_term_mips() {
+  sigma_max_ = 0;
+  for (int i = 0; i < 3; ++i) {
+    const FractalTerm& term = p_.fractals[static_cast<std::size_t>(i)];
+    const noise::MipPyramid& mip = tex_->mips[static_cast<std::size_t>(i)];
+    TermMips& tm = term_mips_[static_cast<std::size_t>(i)];
+    tm = TermMips{};
+    if (mip.stats.empty()) {  // no pyramid: every footprint reads level 0
+      tm.top_level = 1, tm.top = 0;
+      tm.hi[0] = tm.hi[1] = std::max(0.0, term.weight);
+      continue;
+    }
+    // A footprint of width w is a box of standard deviation w / sqrt(12); a trilinear sample of
+    // level l averages with one of 2^l voxels / 2 (a box of 2^l voxels under a tent of as many):
+    // equal at 2^l voxels = w / sqrt(3), so the level is log2(w / voxel) - log2(sqrt(3)).
+    tm.log2_voxels_per_m = std::log2((*tex_)[i].size() / term.length_scale_m) - 0.5 * std::log2(3.0);
+    tm.mean_weighted = term.weight * mip.stats[0].mean;
+    sigma_max_ = std::sqrt(sigma_max_ * sigma_max_ + term.weight * term.weight * mip.stats[0].variance);
+    tm.mean = mip.stats.back().mean;
+    const double w = term.weight;
+    if (mip.stats.size() > TermMips::max_levels)
+      throw ValueError(fmt::format("a mip pyramid of {} levels: at most {}", mip.stats.size(), TermMips::max_levels));
+    for (std::size_t l = 0; l < mip.stats.size(); ++l) {
+      const noise::TextureStats& st = mip.stats[l];
+      tm.lost_variance[l] = w * w * (mip.stats[0].variance - st.variance);
+      tm.hi[l] = std::max(w * st.lo, w * st.hi);
+    }
+    tm.top_level = static_cast<int>(mip.stats.size()) - 1;
+    tm.top = tm.top_level;
+  }
+}
+
+void CloudShell::build_detail_tables() {
+  // Footprints from 1 m to 2^26 m (beyond the Earth's size), 8 nodes per octave.
+  const std::size_t n = 26 * footprint_nodes_per_octave + 1;
+  detail_length_.assign(n, std::numeric_limits<double>::infinity()), detail_variance_.assign(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double log2_s = static_cast<double>(k) / footprint_nodes_per_octave;
+    double var = 0, rate = 0;  // sigma^2, and its share-weighted sum of the bands' rates 1 / length
+    for (std::size_t i = 0; i < 3; ++i) {
+      const TermMips& tm = term_mips_[i];
+      if (tm.top_level < 1 || tm.top <= 0) continue;
+      const FractalTerm& term = p_.fractals[i];
+      const double voxel_m = term.length_scale_m / (*tex_)[static_cast<int>(i)].size();
+      const double x = std::clamp(log2_s + tm.log2_voxels_per_m, 0.0, tm.top);
+      for (int l = 0; l < tm.top_level && l < x; ++l) {
+        const auto lu = static_cast<std::size_t>(l);
+        const double share = std::min(1.0, x - l) * (tm.lost_variance[lu + 1] - tm.lost_variance[lu]);
+        var += share, rate += share / (voxel_m * std::exp2(l + 0.5));
+      }
+    }
+    detail_variance_[k] = var;
+    if (var > 0) detail_length_[k] = var / rate;
+  }
+  log_clear_.resize(coverage_.size());
+  for (std::size_t k = 0; k < coverage_.size(); ++k) log_clear_[k] = std::log(std::max(1 - coverage_[k], 1e-12));
+}
+
+PathCoverage::PathCoverage(const CloudShell& s, double footprint_m, double path_m) {
+  const double var = s.detail_variance(footprint_m), renewing = s.detail_variance(std::min(footprint_m, path_m));
+  if (!(renewing > 1e-6 * var)) return;  // nothing renews along so short a path: the likeliest step
+  scale_ = std::sqrt(var / renewing), rate_ = 1 / s.detail_length_m(std::min(footprint_m, path_m));
+  const double shared = std::sqrt(std::max(0.0, var - renewing) / renewing);  // sigma_c / sigma_renewing
+  for (std::size_t k = 0; k < shift_.size(); ++k) shift_[k] = s.z_nodes()[k] * shared;
+}
+
+double PathCoverage::chance() const {
+  if (rate_ <= 0) return c_max_;
+  double clear = 0;
+  for (const double l : log_clear_) clear += std::exp(l) / static_cast<double>(log_clear_.size());
+  return std::max(c_max_, 1 - clear);
+}
 
 // The stages are always inlined into evaluate(): they are its parts, and separately compiled
 // they would lose the knowledge that out does not alias the chunk's working set.
 
 // Stage 1: direction, radius, the mask at its upwind point and the altitude barriers; points
 // that cannot reach the level set get their value here and leave, the others are compacted
-// into w's live arrays. Returns their count.
+// into w's live arrays. Returns their count. Filtered: also each point's pyramid levels and
+// sigma, and the bound of the filtered fractal sum from its levels' ranges.
+template <bool Filtered>
 [[gnu::always_inline]] inline std::size_t CloudShell::mask_stage(const earth::Vec3* p, std::size_t c0, std::size_t m,
                                                                  double* out, EvalWork& w) const {
   const double thr = p_.threshold;
@@ -479,10 +657,13 @@ struct CloudShell::EvalWork {
       bar = barrier(alt, lift);  // off the tables
     }
     const double base = bias_ + mask_term(mask) - bar;
+    // Filtered: out of reach whatever the footprint (sigma at most sigma_max_, the fractal sum
+    // within its bounds); the footprint's own reach is level_stage()'s.
+    const double margin = Filtered ? u_min_ * sigma_max_ : 0.0;
     if (mask < p_.min_mask) {
-      out[c0 + j] = std::min(base + fractal_max_, thr) - 1.0;
-    } else if (base + fractal_max_ < thr) {
-      out[c0 + j] = base + fractal_max_;  // cannot reach the level set
+      out[c0 + j] = Filtered ? u_min_ : std::min(base + fractal_max_, thr) - 1.0;
+    } else if (base + fractal_max_ < thr + margin) {
+      out[c0 + j] = Filtered ? u_min_ : base + fractal_max_;  // cannot reach the level set
     } else {
       w.id[live] = static_cast<std::uint32_t>(j);
       w.lx[live] = w.x[j], w.ly[live] = w.y[j], w.lz[live] = w.z[j], w.lr[live] = w.r[j];
@@ -493,9 +674,53 @@ struct CloudShell::EvalWork {
   return live;
 }
 
+// Stage 1b, filtered: each live point's pyramid levels (randomly rounded: 21 bits of the
+// point's hash per term), sigma, and the bound of its filtered fractal sum from its levels'
+// ranges, in a loop that vectorises (the tables are fixed arrays); the points this bound puts
+// out of reach leave. Returns the count left.
+[[gnu::always_inline]] inline std::size_t CloudShell::level_stage(const earth::Vec3* p, const double* footprint_m,
+                                                                  std::size_t c0, std::size_t nlive, double* out,
+                                                                  EvalWork& w) const {
+  alignas(64) double f_max[eval_chunk];
+  const TermMips* tm = term_mips_.data();
+#pragma omp simd
+  for (std::size_t a = 0; a < nlive; ++a) {
+    const std::size_t j = c0 + w.id[a];
+    const double log2_s = fast_log2(max_v(footprint_m[j], 1e-3));
+    const std::uint64_t h = point_hash(p[j]);
+    double var = 0, fm = 0;
+    for (int i = 0; i < 3; ++i) {
+      const TermMips& m = tm[i];
+      const double x = min_v(max_v(log2_s + m.log2_voxels_per_m, 0.0), m.top);
+      const int l = std::min(static_cast<int>(x), m.top_level - 1);
+      const double f = x - l, u = static_cast<double>((h >> (21 * i)) & 0x1fffff) * 0x1.0p-21;
+      const auto lu = static_cast<std::size_t>(l);
+      var += m.lost_variance[lu] + f * (m.lost_variance[lu + 1] - m.lost_variance[lu]);
+      const std::size_t lv = lu + (u < f ? 1 : 0);
+      w.level[i][a] = static_cast<std::uint8_t>(lv);
+      fm += m.hi[lv];
+    }
+    w.sigma[a] = std::sqrt(var), f_max[a] = fm;
+  }
+  std::size_t kept = 0;
+  for (std::size_t a = 0; a < nlive; ++a) {
+    if (w.v[a] + f_max[a] < p_.threshold + u_min_ * w.sigma[a]) {
+      out[c0 + w.id[a]] = u_min_;
+      continue;
+    }
+    w.id[kept] = w.id[a], w.lx[kept] = w.lx[a], w.ly[kept] = w.ly[a], w.lz[kept] = w.lz[a], w.lr[kept] = w.lr[a];
+    w.v[kept] = w.v[a], w.sigma[kept] = w.sigma[a];
+    for (int i = 0; i < 3; ++i) w.level[i][kept] = w.level[i][a];
+    ++kept;
+  }
+  return kept;
+}
+
 // Stage 2: the upwind points and texture footprints of every fractal term (texture
 // coordinates in tiles, reduced in double before the float lookup) and, for classify(), the
-// terms' bounds over the footprints' blocks.
+// terms' bounds over the footprints' blocks. Filtered: each point's footprint in its level's
+// texture; the mean level's value is its own bound.
+template <bool Filtered>
 [[gnu::always_inline]] inline void CloudShell::footprint_stage(const std::array<int, 3>& terms, std::size_t nt,
                                                                std::size_t nlive, bool early_out, EvalWork& w) const {
   for (std::size_t t = 0; t < nt; ++t) {
@@ -506,6 +731,19 @@ struct CloudShell::EvalWork {
     const noise::Texture3D& tex = (*tex_)[i];
     const double inv_ls = 1 / term.length_scale_m;
     Footprints& f = w.f[t];
+    if constexpr (Filtered) {
+      for (std::size_t a = 0; a < nlive; ++a) {
+        const noise::Texture3D* lt = tex_->level(i, w.level[i][a]);
+        w.level_tex[t][a] = lt;
+        if (!lt) continue;
+        const double k = w.lr[a] * inv_ls;
+        const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
+        f.set(a, lt->footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
+                               static_cast<float>(qz - std::floor(qz))));
+        lt->prefetch_bounds(f.block[a]);
+      }
+      continue;
+    }
 #pragma omp simd
     for (std::size_t a = 0; a < nlive; ++a) {
       const double k = w.lr[a] * inv_ls;
@@ -525,6 +763,19 @@ struct CloudShell::EvalWork {
     const double weight = p_.fractals[static_cast<std::size_t>(i)].weight;
     const noise::Texture3D& tex = (*tex_)[i];
     const Footprints& f = w.f[t];
+    if constexpr (Filtered) {
+      const double mean = weight * term_mips_[static_cast<std::size_t>(i)].mean;
+      for (std::size_t a = 0; a < nlive; ++a) {
+        const noise::Texture3D* lt = w.level_tex[t][a];
+        if (!lt) {
+          w.lo[t][a] = w.hi[t][a] = mean;
+          continue;
+        }
+        const noise::Texture3D::Bounds b = lt->bounds(f[a]);
+        w.lo[t][a] = std::min(weight * b.lo, weight * b.hi), w.hi[t][a] = std::max(weight * b.lo, weight * b.hi);
+      }
+      continue;
+    }
     for (std::size_t a = 0; a < nlive; ++a) w.words[a] = tex.block_word(f.block[a]);
 #pragma omp simd
     for (std::size_t a = 0; a < nlive; ++a) {
@@ -540,6 +791,7 @@ struct CloudShell::EvalWork {
 // decided ones get a bound on their side as their value. Branch-free, since the bounds'
 // verdicts are hard to predict: every point is written with its bound and stored as selected;
 // only an undecided one advances the count (its value is written again later).
+template <bool Filtered>
 [[gnu::always_inline]] inline std::size_t CloudShell::select_stage(std::size_t c0, std::size_t nt, std::size_t nlive,
                                                                    bool early_out, double* out, EvalWork& w) const {
   std::size_t nsel = 0;
@@ -552,9 +804,9 @@ struct CloudShell::EvalWork {
     double lo, hi;
     w.rest(a, 0, nt, lo, hi);
     const double v = w.v[a];
-    // The side decided by the local bounds:
-    const bool below = (v + hi < thr), above = (v + lo > thr);
-    out[c0 + w.id[a]] = v + (below ? hi : lo);
+    bool below, above;  // the side decided by the local bounds
+    w.template decide<Filtered>(a, v, lo, hi, thr, below, above);
+    out[c0 + w.id[a]] = w.template decided<Filtered>(v, lo, hi, below);
     w.sel[nsel] = static_cast<std::uint32_t>(a);
     nsel += !(below | above);
   }
@@ -566,6 +818,7 @@ struct CloudShell::EvalWork {
 // a second array, not in place: in place, the loads of sel[b + 1] and on waited on the store to
 // sel[kept], whose address depends on the previous verdict (docs/PERFORMANCE.md, design
 // choices).
+template <bool Filtered>
 [[gnu::always_inline]] inline void CloudShell::sample_stage(const std::array<int, 3>& terms, std::size_t nt,
                                                             std::size_t c0, std::size_t nsel, bool early_out,
                                                             double* out, EvalWork& w) const {
@@ -579,13 +832,23 @@ struct CloudShell::EvalWork {
     // The fetches first, in a loop with no branch on their values, so that a mispredicted
     // decision cannot squash the younger fetches in flight (the misses overlap).
     const Footprints& f = w.f[t];
-    for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[sel[b]]);
-    for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[sel[b]]);
+    if constexpr (Filtered) {
+      const auto mean = static_cast<float>(term_mips_[static_cast<std::size_t>(i)].mean);
+      for (std::size_t b = 0; b < nsel; ++b)
+        if (const noise::Texture3D* lt = w.level_tex[t][sel[b]]) lt->prefetch(f[sel[b]]);
+      for (std::size_t b = 0; b < nsel; ++b) {
+        const noise::Texture3D* lt = w.level_tex[t][sel[b]];
+        w.texel[b] = lt ? lt->sample(f[sel[b]]) : mean;
+      }
+    } else {
+      for (std::size_t b = 0; b < nsel; ++b) tex.prefetch(f[sel[b]]);
+      for (std::size_t b = 0; b < nsel; ++b) w.texel[b] = tex.sample(f[sel[b]]);
+    }
     std::size_t kept = 0;
     if (t + 1 == nt) {  // every term added: exact
       for (std::size_t b = 0; b < nsel; ++b) {
         const std::uint32_t a = sel[b];
-        out[c0 + w.id[a]] = w.v[a] += weight * w.texel[b];
+        out[c0 + w.id[a]] = w.template exact<Filtered>(a, w.v[a] += weight * w.texel[b], thr);
       }
     } else if (early_out) {  // branch-free, as select_stage
       for (std::size_t b = 0; b < nsel; ++b) {
@@ -594,8 +857,9 @@ struct CloudShell::EvalWork {
         double lo, hi;
         w.rest(a, t + 1, nt, lo, hi);
         // Decided: out holds a bound on the same side of the threshold.
-        const bool below = (v + hi < thr), above = (v + lo > thr);
-        out[c0 + w.id[a]] = v + (below ? hi : lo);
+        bool below, above;
+        w.template decide<Filtered>(a, v, lo, hi, thr, below, above);
+        out[c0 + w.id[a]] = w.template decided<Filtered>(v, lo, hi, below);
         sel_next[kept] = a;
         kept += !(below | above);
       }
@@ -606,7 +870,8 @@ struct CloudShell::EvalWork {
     if (early_out && t + 1 < nt) std::swap(sel, sel_next);
     nsel = kept;
   }
-  for (std::size_t b = 0; b < nsel; ++b) out[c0 + w.id[sel[b]]] = w.v[sel[b]];  // no terms at all
+  for (std::size_t b = 0; b < nsel; ++b)  // no terms at all
+    out[c0 + w.id[sel[b]]] = w.template exact<Filtered>(sel[b], w.v[sel[b]], thr);
 }
 
 void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const {
@@ -620,15 +885,30 @@ void CloudShell::evaluate(const earth::Vec3* p, std::size_t n, double* out, bool
   EvalWork w;
   for (std::size_t c0 = 0; c0 < n; c0 += eval_chunk) {
     const std::size_t m = std::min(eval_chunk, n - c0);
-    const std::size_t nlive = mask_stage(p, c0, m, out, w);
-    footprint_stage(terms, nt, nlive, early_out, w);
-    const std::size_t nsel = select_stage(c0, nt, nlive, early_out, out, w);
-    sample_stage(terms, nt, c0, nsel, early_out, out, w);
+    const std::size_t nlive = mask_stage<false>(p, c0, m, out, w);
+    footprint_stage<false>(terms, nt, nlive, early_out, w);
+    const std::size_t nsel = select_stage<false>(c0, nt, nlive, early_out, out, w);
+    sample_stage<false>(terms, nt, c0, nsel, early_out, out, w);
   }
 }
 
-void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value,
-                                    earth::Vec3* gradient) const {
+void CloudShell::evaluate_filtered(const earth::Vec3* p, const double* footprint_m, std::size_t n, double* out) const {
+  // evaluate()'s stages with each point's pyramid levels and sigma (classify_filtered()).
+  std::array<int, 3> terms{};
+  const std::size_t nt = active_terms(terms);
+  EvalWork w;
+  w.u_min = u_min_, w.u_max = u_max_;
+  for (std::size_t c0 = 0; c0 < n; c0 += eval_chunk) {
+    const std::size_t m = std::min(eval_chunk, n - c0);
+    const std::size_t nlive = level_stage(p, footprint_m, c0, mask_stage<true>(p, c0, m, out, w), out, w);
+    footprint_stage<true>(terms, nt, nlive, true, w);
+    const std::size_t nsel = select_stage<true>(c0, nt, nlive, true, out, w);
+    sample_stage<true>(terms, nt, c0, nsel, true, out, w);
+  }
+}
+
+void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient,
+                                    const double* footprint_m) const {
   // Per chunk, four positions per point (the point, then +h along x, y, z), as arrays:
   //  1. the mask term at all four, differenced, and the barriers' derivative;
   //  2. per fractal term, its unwrapped texture coordinates Q = (r / LS) upwind(x / r) at all
@@ -642,6 +922,7 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
   alignas(64) double qx[m4], qy[m4], qz[m4];
   std::array<noise::Texture3D::Footprint, chunk> fp;
   std::array<noise::Texture3D::ValueGradient, chunk> tg;
+  std::array<const noise::Texture3D*, chunk> level_tex;  // filtered: each point's level of the term
   std::array<int, 3> terms{};
   const std::size_t nt = active_terms(terms);
   const double inv_h = 1 / h;
@@ -697,12 +978,23 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
           const double kk = r[s] * inv_ls;
           qx[s] = ux[s] * kk, qy[s] = uy[s] * kk, qz[s] = uz[s] * kk;
         }
+      for (std::size_t a = 0; a < m; ++a) {
+        level_tex[a] = &tex;
+        if (footprint_m) {  // classify_filtered()'s level at this point
+          double lost;
+          const double u = static_cast<double>((point_hash(p[c0 + a]) >> (21 * i)) & 0x1fffff) * 0x1.0p-21;
+          level_tex[a] = tex_->level(i, term_level(i, fast_log2(std::max(footprint_m[c0 + a], 1e-3)), u, lost));
+        }
+        if (!level_tex[a]) continue;
+        fp[a] = level_tex[a]->footprint(static_cast<float>(qx[a] - std::floor(qx[a])),
+                                        static_cast<float>(qy[a] - std::floor(qy[a])),
+                                        static_cast<float>(qz[a] - std::floor(qz[a])));
+      }
       for (std::size_t a = 0; a < m; ++a)
-        fp[a] =
-            tex.footprint(static_cast<float>(qx[a] - std::floor(qx[a])), static_cast<float>(qy[a] - std::floor(qy[a])),
-                          static_cast<float>(qz[a] - std::floor(qz[a])));
-      for (std::size_t a = 0; a < m; ++a) tex.prefetch(fp[a]);
-      for (std::size_t a = 0; a < m; ++a) tg[a] = tex.sample_gradient(fp[a]);
+        if (level_tex[a]) level_tex[a]->prefetch(fp[a]);
+      const auto mean = static_cast<float>(term_mips_[static_cast<std::size_t>(i)].mean);
+      for (std::size_t a = 0; a < m; ++a)
+        tg[a] = level_tex[a] ? level_tex[a]->sample_gradient(fp[a]) : noise::Texture3D::ValueGradient{mean, 0, 0, 0};
       const double weight = term.weight;
       for (std::size_t a = 0; a < m; ++a) {
         // grad_x T = J^T grad_Q T with J[j][k] = dQ_j / dx_k (forward differences).

@@ -33,13 +33,23 @@ namespace nephos::clouds {
 
 using weather::CloudType;
 
-/// The three baked textures every cloud type draws from, one set per seed.
+/// The three baked textures every cloud type draws from, one set per seed, with their mip
+/// pyramids (for footprints wider than a voxel: CloudShell::classify_filtered).
 struct FractalTextures {
   noise::Texture3D coarse, fine, worley;
+  std::array<noise::MipPyramid, 3> mips;
+  /// The three textures (of one size, at least 8) and their pyramids.
+  static FractalTextures from(noise::Texture3D coarse, noise::Texture3D fine, noise::Texture3D worley);
   /// Bakes the three fractals of `params` at params.texture_size. Octaves finer than half the
   /// texture resolution (which the voxels could not resolve) are dropped.
   static FractalTextures bake(const struct CloudModelParams& params, std::uint64_t seed);
   const noise::Texture3D& operator[](int i) const { return i == 0 ? coarse : i == 1 ? fine : worley; }
+  /// Level `level` of texture i's pyramid: 0 the texture, 1.. its filtered copies; null at the
+  /// mean level (MipPyramid::mean_level()) and past it.
+  const noise::Texture3D* level(int i, int level) const {
+    const auto& m = mips[static_cast<std::size_t>(i)];
+    return level == 0 ? &(*this)[i] : level < m.mean_level() ? &m.levels[static_cast<std::size_t>(level - 1)] : nullptr;
+  }
 };
 
 struct FractalTerm {
@@ -140,13 +150,62 @@ class CloudShell {
   void classify(const earth::Vec3* p, std::size_t n, double* out) const { evaluate(p, n, out, true); }
   /// value() of n points at once (see classify()).
   void value(const earth::Vec3* p, std::size_t n, double* out) const { evaluate(p, n, out, false); }
+  /// The cloud function as a pixel sees it (anti-aliasing by ray cones): at p[i] the pixel's
+  /// footprint is footprint_m[i] metres wide. Each fractal term is read from the level of its mip
+  /// pyramid whose voxels are that wide (level log2(footprint / voxel), rounded up or down at
+  /// random in proportion, a counter-based hash of the point: stochastic texture filtering,
+  /// Pharr et al. 2024), and the variance the footprint averages away, sigma^2 = sum_i m_i^2
+  /// (var_i(0) - var_i(level)), is that of the sub-pixel detail. out[i] = u, the distance to the
+  /// level set in units of sigma, (CF_filtered - threshold) / sigma, within [u_min(), u_max()]
+  /// (an end where the bounds decide it): coverage(u) is the share of the footprint that is cloud
+  /// at p. Where the footprint is finer than every voxel, sigma = 0 and u is an end on CF's side
+  /// of the threshold: classify() again.
+  void classify_filtered(const earth::Vec3* p, const double* footprint_m, std::size_t n, double* out) const {
+    evaluate_filtered(p, footprint_m, n, out);
+  }
+  /// The share of a footprint that is cloud at filtered distance u: the chance that the
+  /// sub-pixel detail, sigma Z, lifts CF above the threshold, P(Z > -u), Z the fractal sum
+  /// standardised (its distribution sampled as for the calibration, tabulated): the fractal sum's
+  /// own bounded, skewed shape, not a normal one. 0 at u_min() and below, 1 at u_max() and above.
+  double coverage(double u) const {
+    const double x = (u - u_min_) / (u_max_ - u_min_) * coverage_intervals;
+    if (!(x > 0)) return 0;
+    if (x >= coverage_intervals) return 1;
+    const auto i = static_cast<std::size_t>(x);
+    return coverage_[i] + (x - static_cast<double>(i)) * (coverage_[i + 1] - coverage_[i]);
+  }
+  /// log(1 - coverage(u)), tabulated likewise (-27.6, log 1e-12, where coverage is 1).
+  double log_clear(double u) const {
+    const double x = (u - u_min_) / (u_max_ - u_min_) * coverage_intervals;
+    if (!(x > 0)) return 0;
+    if (x >= coverage_intervals) return log_clear_.back();
+    const auto i = static_cast<std::size_t>(x);
+    return log_clear_[i] + (x - static_cast<double>(i)) * (log_clear_[i + 1] - log_clear_[i]);
+  }
+  /// Equal-probability nodes of Z (its quantiles at (k + 1/2) / 4): the expectation over the
+  /// sub-pixel detail shared along a path (PathCoverage).
+  static constexpr int z_node_count = 4;
+  const std::array<double, z_node_count>& z_nodes() const { return z_nodes_; }
+  /// sigma^2 of the sub-pixel detail of a footprint footprint_m wide (as classify_filtered()).
+  double detail_variance(double footprint_m) const { return footprint_table(detail_variance_, footprint_m); }
+  /// The length [m] over which the sub-pixel detail of a footprint footprint_m wide decorrelates
+  /// along a path: each band of the mip pyramid it averages away (2^l to 2^(l+1) voxels) renews
+  /// itself once per its scale (their geometric mean); the rates 1 / scale averaged with the
+  /// bands' shares of sigma^2 (fine detail holds little variance but renews often). A path of
+  /// length L through cloud of coverage c then misses it with chance (1 - c)^(L / length), as if
+  /// in L / length independent tries. Infinite where no detail is averaged away.
+  double detail_length_m(double footprint_m) const { return footprint_table(detail_length_, footprint_m); }
+  double u_min() const { return u_min_; }  ///< -max Z: below, no sub-pixel detail reaches the threshold
+  double u_max() const { return u_max_; }  ///< -min Z: above, all of it does
   /// CF at n points and its gradient [1/m] there, for surface normals. The fractal terms'
   /// gradients are the trilinear interpolants' own (from the eight voxels the value reads),
   /// chained with the Jacobian of their upwind texture coordinates; that Jacobian and the mask
   /// term (smooth, cheap lookups) come from forward differences of step h [m], the altitude
   /// barriers' derivative is analytic. Three texture lookups per point instead of the twelve
   /// of forward differences of CF itself. `value` may be null.
-  void value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient) const;
+  /// With footprint_m (null: none), those of the filtered cloud function (classify_filtered()).
+  void value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient,
+                          const double* footprint_m = nullptr) const;
   /// The mask value seen at p (after the mask's displacement).
   double mask_at(const earth::Vec3& p) const;
   /// Lifts the shell per location: at a point whose displaced mask direction is u the cloud
@@ -191,15 +250,57 @@ class CloudShell {
   bool shares_upwind(const std::array<int, 3>& terms, std::size_t t) const;
   double evaluate(const earth::Vec3& p, bool early_out) const;
   void evaluate(const earth::Vec3* p, std::size_t n, double* out, bool early_out) const;
-  // The stages of the batched evaluate() over one chunk of points (cloud_model.cpp).
+  void evaluate_filtered(const earth::Vec3* p, const double* footprint_m, std::size_t n, double* out) const;
+  // The stages of the batched evaluate() over one chunk of points (cloud_model.cpp); Filtered:
+  // those of evaluate_filtered().
   struct EvalWork;
+  template <bool Filtered>
   std::size_t mask_stage(const earth::Vec3* p, std::size_t c0, std::size_t m, double* out, EvalWork& w) const;
+  template <bool Filtered>
   void footprint_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t nlive, bool early_out,
                        EvalWork& w) const;
+  template <bool Filtered>
   std::size_t select_stage(std::size_t c0, std::size_t nt, std::size_t nlive, bool early_out, double* out,
                            EvalWork& w) const;
+  template <bool Filtered>
   void sample_stage(const std::array<int, 3>& terms, std::size_t nt, std::size_t c0, std::size_t nsel, bool early_out,
                     double* out, EvalWork& w) const;
+  std::size_t level_stage(const earth::Vec3* p, const double* footprint_m, std::size_t c0, std::size_t nlive,
+                          double* out, EvalWork& w) const;
+  /// Per fractal term, what filtering needs: log2 of voxels per metre, the mean, and per pyramid
+  /// level (0 .. top_level, the mean level) the variance averaged away, m_i^2 (var(0) -
+  /// var(level)), and the weighted upper bound of the level's values.
+  struct TermMips {
+    static constexpr std::size_t max_levels = 16;  ///< a 1024^3 texture has 10
+    double log2_voxels_per_m = 0, mean = 0, mean_weighted = 0, top = 0;
+    int top_level = 0;
+    std::array<double, max_levels> lost_variance{}, hi{};
+  };
+  std::array<TermMips, 3> term_mips_;
+  void build_term_mips();
+  /// The pyramid level of fractal term i for a footprint of 2^log2_s metres, rounded at random
+  /// with u in [0, 1); its sigma^2 contribution (continuous in the level) into lost_var.
+  int term_level(int i, double log2_s, double u, double& lost_var) const {
+    const TermMips& tm = term_mips_[static_cast<std::size_t>(i)];
+    const double x = std::clamp(log2_s + tm.log2_voxels_per_m, 0.0, tm.top);
+    const int l = std::min(static_cast<int>(x), tm.top_level - 1);
+    const double f = x - l;
+    const auto lu = static_cast<std::size_t>(l);
+    lost_var = tm.lost_variance[lu] + f * (tm.lost_variance[lu + 1] - tm.lost_variance[lu]);
+    return l + (u < f ? 1 : 0);
+  }
+  double sigma_max_ = 0;  ///< sigma of a footprint that averages every term away
+  static constexpr int footprint_nodes_per_octave = 8;
+  std::vector<double> detail_length_, detail_variance_;  ///< at footprints 2^(i / 8) m
+  std::vector<double> log_clear_;                        ///< log_clear() at coverage_'s nodes
+  std::array<double, z_node_count> z_nodes_{};
+  void build_detail_tables();
+  static double footprint_table(const std::vector<double>& t, double footprint_m) {
+    const double x = std::log2(std::max(footprint_m, 1.0)) * footprint_nodes_per_octave;
+    if (!(x < static_cast<double>(t.size() - 1))) return t.back();
+    const auto i = static_cast<std::size_t>(x);
+    return t[i] + (x - static_cast<double>(i)) * (t[i + 1] - t[i]);
+  }
   void build_skip_map();
   /// The altitude barriers at altitude alt [m] with the top one raised by lift [m]: A (exp(-(alt -
   /// bottom) / L_bottom) + exp((alt - lift - top) / L_top)), from tables where alt is on them.
@@ -217,6 +318,13 @@ class CloudShell {
     return mask_terms_[iu] + (x - i) * (mask_terms_[iu + 1] - mask_terms_[iu]);
   }
   static constexpr int mask_term_intervals = 1024;
+  static constexpr int coverage_intervals = 1024;
+  std::vector<double> coverage_;  ///< coverage() at u_min + k (u_max - u_min) / 1024
+  double u_min_ = -4, u_max_ = 4;
+  /// The fractal sum F at 32768 counter-hashed points (each texture at its own independent
+  /// position: the terms use unrelated length scales), sorted.
+  std::vector<double> fractal_sample() const;
+  void build_coverage(const std::vector<double>& sorted_f);
   std::vector<double> mask_terms_;  ///< phi at m = k / 1024 (calibrated), else empty
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms
@@ -227,6 +335,36 @@ class CloudShell {
   // exponentials' relative change over 1 m is < 1/150, error < 1e-5).
   std::vector<float> barrier_bottom_, barrier_top_;  ///< each barrier at 1 m steps from barrier_z0_
   double barrier_z0_ = 0;
+};
+
+/// The chance that a ray's path through a filtered shell meets cloud (anti-aliasing: a pixel's
+/// cloud fraction is the share of the rays through its footprint that meet cloud anywhere along
+/// their paths, far above any one step's coverage). The sub-pixel detail splits at the path's
+/// length L: scales above it are shared by the whole path (sigma_c^2 = sigma^2(w) -
+/// sigma^2(L)), those below renew along it, one independent try per detail length l(L)
+/// (CloudShell::detail_length_m). The path misses with chance E[prod_k (1 - c_k)^(ds / l)], c_k
+/// the share of the renewing detail that reaches the threshold at step k given the shared part,
+/// the expectation over the shared part by equal-probability nodes of Z; never less than the
+/// likeliest step's coverage.
+class PathCoverage {
+ public:
+  PathCoverage() = default;
+  /// @param footprint_m  the footprint's width along the path [m]
+  /// @param path_m       the path's length inside the shell [m]
+  PathCoverage(const CloudShell& s, double footprint_m, double path_m);
+  /// One step of length ds_m [m] at filtered distance u (CloudShell::classify_filtered).
+  void add(const CloudShell& s, double u, double ds_m) {
+    c_max_ = std::max(c_max_, s.coverage(u));
+    if (!(u > s.u_min()) || rate_ <= 0) return;
+    for (int n = 0; n < CloudShell::z_node_count; ++n)
+      log_clear_[static_cast<std::size_t>(n)] +=
+          ds_m * rate_ * s.log_clear(u * scale_ + shift_[static_cast<std::size_t>(n)]);
+  }
+  double chance() const;
+
+ private:
+  double scale_ = 1, rate_ = 0, c_max_ = 0;  // sigma / sigma_renewing; 1 / l(L)
+  std::array<double, CloudShell::z_node_count> shift_{}, log_clear_{};
 };
 
 /// The tables of a configuration file the cloud model and the masks read: [clouds.*],

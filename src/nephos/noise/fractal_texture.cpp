@@ -11,6 +11,8 @@
 namespace nephos::noise {
 namespace {
 
+constexpr double texel_scale = 1.0 / Texture3D::texel_max;  // a texel level's value
+
 int wrap(int i, int period) {
   const int r = i % period;
   return r < 0 ? r + period : r;
@@ -234,6 +236,51 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
     }
   t.update_bounds();
   return t;
+}
+
+TextureStats texture_stats(const Texture3D& t) {
+  const int n = t.size();
+  double sum = 0, sum2 = 0;
+  int lo = 255, hi = 0;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j) {
+      const Texture3D::Texel* row =
+          t.data() + t.offset_y(static_cast<unsigned>(j)) + t.offset_z(static_cast<unsigned>(k));
+      for (int i = 0; i < n; ++i) {
+        const int v = row[t.offset_x(static_cast<unsigned>(i))];
+        sum += v, sum2 += static_cast<double>(v) * v, lo = std::min(lo, v), hi = std::max(hi, v);
+      }
+    }
+  const double count = static_cast<double>(n) * n * n, m = texel_scale * sum / count;
+  return {m, std::max(0.0, texel_scale * texel_scale * sum2 / count - m * m), texel_scale * lo, texel_scale * hi};
+}
+
+Texture3D half_size(const Texture3D& t) {
+  const int h = t.size() / 2;
+  Texture3D out(h);
+  auto at = [&t](int i, int j, int k) { return static_cast<int>(t.data()[t.index(i, j, k)]); };
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < h; ++k)
+    for (int j = 0; j < h; ++j)
+      for (int i = 0; i < h; ++i) {
+        int sum = 0;
+        for (int c = 0; c < 8; ++c) sum += at(2 * i + (c & 1), 2 * j + ((c >> 1) & 1), 2 * k + (c >> 2));
+        out.data()[out.index(i, j, k)] = static_cast<Texture3D::Texel>((sum + 4) / 8);
+      }
+  out.update_bounds();
+  return out;
+}
+
+MipPyramid MipPyramid::of(const Texture3D& t) {
+  MipPyramid m;
+  m.stats.push_back(texture_stats(t));
+  for (const Texture3D* level = &t; level->size() > 4;) {
+    m.levels.push_back(half_size(*level));
+    level = &m.levels.back();
+    m.stats.push_back(texture_stats(*level));
+  }
+  m.stats.push_back({m.stats[0].mean, 0.0, m.stats[0].mean, m.stats[0].mean});
+  return m;
 }
 
 void Texture3D::throw_bad_size(int n) {

@@ -207,4 +207,29 @@ double fractal_value(const FractalSpec& spec, std::uint64_t seed, double x, doub
 /// maps to 0 and maximum to 1. Deterministic from `seed` for any thread count.
 Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n);
 
+/// The statistics of a texture's voxels, each in [0, 1] (variance in [0, 1]^2).
+struct TextureStats {
+  double mean = 0, variance = 0, lo = 0, hi = 0;
+};
+TextureStats texture_stats(const Texture3D& t);
+
+/// `t` box-filtered to half its size: each voxel the mean of a 2 x 2 x 2 block (rounded to the
+/// nearest texel level). Its trilinear samples are the texture's averages over footprints of
+/// about two voxels, the next level of a mip pyramid (Williams 1983).
+Texture3D half_size(const Texture3D& t);
+
+/// A texture's mip pyramid: level 0 the texture itself (not held), level l (1..) the texture
+/// box-filtered l times (n / 2^l voxels, down to 4), and one level past the last, the voxels'
+/// mean (a constant). stats[l] are each level's voxel statistics, stats.back() the mean's (its
+/// variance 0): the variance a footprint of 2^l voxels averages away is stats[0].variance -
+/// stats[l].variance (the law of total variance for the block means).
+struct MipPyramid {
+  std::vector<Texture3D> levels;    ///< levels 1 .. L (levels[l - 1] is level l)
+  std::vector<TextureStats> stats;  ///< levels 0 .. L + 1
+  /// The mip pyramid of `t` (n >= 8: at least one level).
+  static MipPyramid of(const Texture3D& t);
+  /// The level past the last texture: the mean.
+  int mean_level() const { return static_cast<int>(levels.size()) + 1; }
+};
+
 }  // namespace nephos::noise

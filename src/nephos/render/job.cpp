@@ -24,6 +24,7 @@ RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
   rp.stratified_samples = !view.sample_grid;
   rp.atmosphere = view.atmosphere;
   rp.shadows = view.shadows;
+  rp.filter = view.filter;
   rp.sample_seed = seed;
   return rp;
 }

@@ -42,6 +42,7 @@ struct ViewRequest {
   bool sample_grid = false;     ///< sub-pixel rays at the sub-pixels' centres, not stratified
   bool atmosphere = true;       ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
   bool shadows = true;          ///< clouds shade the ground and lower clouds from direct sunlight
+  bool filter = true;           ///< fractal detail finer than a pixel filtered (false: point samples, aliased)
   std::optional<UtcTime> time;  ///< UTC for the Sun; empty: the weather's valid time
 };
 

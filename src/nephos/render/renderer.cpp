@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -73,6 +74,7 @@ struct PlanckTable {
 struct Layer {  // one cloud type's contribution to one pixel; its per-band values apart (below)
   float t = std::numeric_limits<float>::infinity();
   float altitude = 0, tau_vis = 0;
+  float coverage = 1;  // the share of the pixel it covers (ShellHit::coverage)
 };
 // A layer's radiance [W m^-2 sr^-1 um^-1] and direct transmittance in each of a render's nb
 // bands: radiance[0..nb) then transmittance[0..nb), 8 nb bytes per layer (as many bands as
@@ -83,9 +85,9 @@ constexpr std::size_t layer_band_floats(std::size_t nb) { return 2 * nb; }
 }  // namespace
 
 ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
-                     int steps, int bisection_iterations) {
+                     int steps, int bisection_iterations, double spread) {
   ShellHit hit;
-  march_shell(shell, o, &d, &t_max, 1, steps, bisection_iterations, &hit);
+  march_shell(shell, o, &d, &t_max, 1, steps, bisection_iterations, &hit, spread);
   return hit;
 }
 
@@ -121,6 +123,12 @@ struct MarchScratch {
   std::vector<double> ma0, mla, mb0, ds, dx, dy, dz;
   std::vector<double> v_prev, lo, hi, depth_after;
   std::vector<int> k_hit;
+  // Filtered marches: the footprint at each point [m], per ray the largest u met and its step,
+  // and the expected length of cloud along the path (sum of ds coverage(u)).
+  std::vector<double> footprint, u_max, soft_length;
+  std::vector<clouds::PathCoverage> paths;  // filtered: each ray's chance of meeting cloud
+  std::vector<double> coverage, shown;      // the cone's share in cloud, and the share a hit reports
+  std::vector<int> k_max;
   std::vector<earth::Vec3> pts, grads;
   std::vector<double> vals;
   void resize_rays(std::size_t n) {
@@ -142,8 +150,10 @@ struct MarchScratch {
   }
   void resize_marched(std::size_t n) {
     idx.resize(n);
-    for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after}) v->resize(n);
-    k_hit.resize(n);
+    for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after, &footprint, &u_max,
+                    &soft_length, &coverage, &shown})
+      v->resize(n);
+    k_hit.resize(n), k_max.resize(n);
     pts.resize(n);
     grads.resize(n);
     vals.resize(n);
@@ -255,6 +265,7 @@ std::size_t rays_to_march(const clouds::CloudShell& shell, const earth::Vec3& o,
     w.ds[j] = w.len[i] / steps;
     w.dx[j] = d[i].x, w.dy[j] = d[i].y, w.dz[j] = d[i].z;
     w.k_hit[j] = -1, w.v_prev[j] = 0, w.lo[j] = 0, w.hi[j] = 0, w.depth_after[j] = 0;
+    w.u_max[j] = -std::numeric_limits<double>::infinity(), w.soft_length[j] = 0, w.k_max[j] = 0;
   }
   return nr;
 }
@@ -302,18 +313,81 @@ void march_steps(const clouds::CloudShell& shell, const earth::Vec3& o, int step
   }
 }
 
+// Stage 3, filtered (anti-aliasing): the march of march_steps() through the shell as the pixel's
+// cone sees it (CloudShell::classify_filtered, footprint spread t at distance t): per ray the
+// first step inside (u > 0, the filtered cloud function above the threshold), the largest u and
+// its step, the expected length of cloud along the path (the trapezoid rule over ds coverage(u))
+// and the chance of meeting any (clouds::path_chance: the coverage ray's cloud fraction).
+void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o, int steps, double spread,
+                          std::size_t nr, MarchScratch& w) {
+  const double ox = o.x, oy = o.y, oz = o.z, u_min = shell.u_min();
+  const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
+  const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();
+  double *pts = &w.pts[0].x, *fp = w.footprint.data(), *u_max = w.u_max.data(), *lo = w.lo.data(), *hi = w.hi.data();
+  double* soft = w.soft_length.data();
+  int *k_hit = w.k_hit.data(), *k_max = w.k_max.data();
+  w.paths.resize(nr);
+  for (std::size_t j = 0; j < nr; ++j) {  // the footprint at the path's middle stands for the whole path
+    const double length = ds[j] * steps;
+    w.paths[j] = clouds::PathCoverage(shell, spread * w.t_at(j, 0.5 * length), length);
+  }
+  for (int k = 0; k <= steps; ++k) {
+    const double kd = k, km1 = k > 0 ? k - 1 : 0, end_weight = (k == 0 || k == steps) ? 0.5 : 1.0;
+#pragma omp simd
+    for (std::size_t j = 0; j < nr; ++j) {  // as march_steps()
+      const double s = kd * ds[j];
+      const double t = s <= mla[j] ? ma0[j] + s : mb0[j] + (s - mla[j]);
+      pts[3 * j] = std::fma(t, rdx[j], ox), pts[3 * j + 1] = std::fma(t, rdy[j], oy);
+      pts[3 * j + 2] = std::fma(t, rdz[j], oz);
+      fp[j] = spread * t;
+    }
+    shell.classify_filtered(w.pts.data(), w.footprint.data(), nr, w.vals.data());
+    for (std::size_t j = 0; j < nr; ++j) {
+      const double u = vals[j];
+      if (u > u_min) {  // else coverage 0
+        soft[j] = std::fma(end_weight * ds[j], shell.coverage(u), soft[j]);
+        w.paths[j].add(shell, u, end_weight * ds[j]);
+      }
+      const bool more = u > u_max[j], first = (k_hit[j] < 0) & (u > 0);
+      u_max[j] = more ? u : u_max[j];
+      k_max[j] = more ? k : k_max[j];
+      lo[j] = first ? km1 * ds[j] : lo[j];
+      hi[j] = first ? kd * ds[j] : hi[j];
+      k_hit[j] = first ? k : k_hit[j];
+    }
+  }
+  // Rays that met no crossing but some chance of cloud: a partial hit at their likeliest step,
+  // not refined. Below roulette_coverage, kept with probability coverage / roulette_coverage
+  // (a counter-based hash of the ray) at that coverage: the same mean, fewer faint hits to shade
+  // (Russian roulette, Arvo & Kirk 1990).
+  for (std::size_t j = 0; j < nr; ++j) {
+    w.coverage[j] = w.shown[j] = w.paths[j].chance();
+    if (w.k_hit[j] >= 0 || !(w.coverage[j] > 0)) continue;
+    if (w.coverage[j] < roulette_coverage) {
+      const std::uint64_t h =
+          mix64(std::bit_cast<std::uint64_t>(w.dx[j]) ^
+                mix64(std::bit_cast<std::uint64_t>(w.dy[j]) ^ std::bit_cast<std::uint64_t>(w.dz[j])));
+      if (to_unit_double(h) * roulette_coverage >= w.coverage[j]) continue;
+      w.shown[j] = roulette_coverage;
+    }
+    w.k_hit[j] = w.k_max[j], w.lo[j] = w.hi[j] = w.k_max[j] * w.ds[j];
+  }
+}
+
 // Stage 4: the rays that found cloud compacted to the front; their first crossings refined
 // together by bisection, each bracket halved until it is shorter than the finest texture voxel
 // (the smallest feature the cloud function has), at most bisection_iterations times. Returns
 // their count.
 std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3& o, int bisection_iterations,
-                             std::size_t nr, MarchScratch& w) {
+                             double spread, std::size_t nr, MarchScratch& w) {
   std::size_t nh = 0;
   for (std::size_t j = 0; j < nr; ++j) {
     if (w.k_hit[j] < 0) continue;
     w.idx[nh] = w.idx[j], w.ma0[nh] = w.ma0[j], w.mla[nh] = w.mla[j], w.mb0[nh] = w.mb0[j], w.ds[nh] = w.ds[j];
     w.dx[nh] = w.dx[j], w.dy[nh] = w.dy[j], w.dz[nh] = w.dz[j];
     w.k_hit[nh] = w.k_hit[j], w.lo[nh] = w.lo[j], w.hi[nh] = w.hi[j], w.depth_after[nh] = w.depth_after[j];
+    w.u_max[nh] = w.u_max[j], w.soft_length[nh] = w.soft_length[j];
+    w.coverage[nh] = w.coverage[j], w.shown[nh] = w.shown[j];
     ++nh;
   }
   const double thr = shell.threshold(), tolerance = shell.feature_size_m();
@@ -325,12 +399,17 @@ std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3&
     if (na == 0) break;
     for (std::size_t a = 0; a < na; ++a) {
       const std::uint32_t j = w.act[a];
-      w.pts[a] = w.point(o, j, 0.5 * (w.lo[j] + w.hi[j]));
+      const double s_mid = 0.5 * (w.lo[j] + w.hi[j]);
+      w.pts[a] = w.point(o, j, s_mid);
+      w.footprint[a] = spread * w.t_at(j, s_mid);
     }
-    shell.classify(w.pts.data(), na, w.vals.data());
+    if (spread > 0)
+      shell.classify_filtered(w.pts.data(), w.footprint.data(), na, w.vals.data());  // u: threshold 0
+    else
+      shell.classify(w.pts.data(), na, w.vals.data());
     for (std::size_t a = 0; a < na; ++a) {
       const std::uint32_t j = w.act[a];
-      (w.vals[a] - thr > 0 ? w.hi[j] : w.lo[j]) = 0.5 * (w.lo[j] + w.hi[j]);
+      (w.vals[a] - (spread > 0 ? 0.0 : thr) > 0 ? w.hi[j] : w.lo[j]) = 0.5 * (w.lo[j] + w.hi[j]);
     }
   }
   return nh;
@@ -339,11 +418,15 @@ std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3&
 // Stage 5: the nh hits with their surface normals from the CF gradient
 // (CloudShell::value_and_gradient: the textures' own gradients, the smooth parts by forward
 // differences with h ~ two fine voxels).
-void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, std::size_t nh, MarchScratch& w,
+void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double spread, std::size_t nh, MarchScratch& w,
                 ShellHit* hits) {
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
-  for (std::size_t j = 0; j < nh; ++j) w.pts[j] = w.point(o, j, w.k_hit[j] == 0 ? 0.0 : w.hi[j]);
-  shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data());
+  for (std::size_t j = 0; j < nh; ++j) {
+    const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
+    w.pts[j] = w.point(o, j, s_hit);
+    w.footprint[j] = spread * w.t_at(j, s_hit);
+  }
+  shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data(), spread > 0 ? w.footprint.data() : nullptr);
   for (std::size_t j = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
     ShellHit& hit = hits[w.idx[j]];
@@ -351,18 +434,28 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, std::size
     hit.hit = true;
     hit.t = w.t_at(j, s_hit);
     hit.position = w.pts[j];
-    // Depth: from the surface to the end of the crossing step, then the steps after it.
+    // Depth: from the surface to the end of the crossing step, then the steps after it. Filtered:
+    // the expected length of cloud along the path over the chance that the ray meets any.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
+    if (spread > 0) {
+      hit.coverage = w.shown[j];
+      hit.depth_m = w.soft_length[j] / w.coverage[j];
+    }
     const earth::Vec3& g = w.grads[j];
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
+    // A partial hit (the filtered function never crosses: cloud smaller than the footprint) is
+    // at the ray's largest u, where the gradient is across the ray. The sub-pixel clouds' visible
+    // surface, area-weighted, faces the sensor (Cauchy: the visible normals of a closed surface
+    // sum to its projected area along the view): their mean normal is -dir.
+    if (spread > 0 && !(w.u_max[j] > 0)) hit.normal = -dir;
   }
 }
 
 }  // namespace
 
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
-                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits) {
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread) {
   // Rays advance in lockstep, one batched classify() per step over every ray still in the
   // shell, so the texture misses of different rays overlap (see CloudShell::classify). Every
   // per-ray stage is a branch-free loop over arrays that vectorises; a ray's result does not
@@ -374,9 +467,12 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   const std::size_t nr = rays_to_march(shell, o, d, n, steps, w);
   for (std::size_t j = 0; j < nr; ++j) hits[w.idx[j]].marched = true;
   if (nr == 0) return;
-  march_steps(shell, o, steps, nr, w);
-  const std::size_t nh = refine_crossings(shell, o, bisection_iterations, nr, w);
-  write_hits(shell, o, nh, w, hits);
+  if (spread > 0)
+    march_steps_filtered(shell, o, steps, spread, nr, w);
+  else
+    march_steps(shell, o, steps, nr, w);
+  const std::size_t nh = refine_crossings(shell, o, bisection_iterations, spread, nr, w);
+  write_hits(shell, o, spread, nh, w, hits);
 }
 
 std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bool stratified, std::uint64_t seed) {
@@ -454,6 +550,9 @@ struct RenderContext {
   /// and its scaled single-scattering albedo, for the shadows it casts.
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
+  /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
+  /// (or sub-pixel's) angle at the image centre [rad]; 0 without filtering.
+  double spread = 0;
 
   RenderContext(const clouds::CloudScene& scene_, const Sensor& sensor_, const earth::SunPosition& sun,
                 const RenderParams& params_, const weather::WeatherGrid* weather_, const BandTables& tables_,
@@ -477,6 +576,8 @@ struct RenderContext {
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && solar(*b));
+    if (params.filter)
+      spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
   std::size_t band_count() const { return tables.bands.size(); }
   /// Sunlight in band b at 1 AU scaled to the Sun's distance [W m^-2 um^-1, normal to the beam].
@@ -573,13 +674,19 @@ void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
 struct Sunlight {
   std::array<double, optics::max_band_count> direct{}, sky{};
 };
-// Cloud between a point and the Sun: the length of each shell's cloud along the sunward ray.
-using CloudLengths = std::array<double, weather::cloud_type_count>;
+// Cloud between a point and the Sun, per shell along the sunward ray: the expected length of
+// cloud and the chance of meeting any (1 or 0 for a point sample; filtered, the sub-pixel
+// clouds' share of the footprint).
+struct CloudLengths {
+  std::array<double, weather::cloud_type_count> length{}, chance{};
+};
 
 // Sunlight arriving at a point through the air above and the clouds towards the Sun
-// (`lengths`, by shell; null: none): the direct beam dimmed by exp(-tau') of the clouds'
-// similarity-scaled optical depth along it, the light they scatter forwards added to the
-// diffuse part (the plane-parallel layer of that optical depth's diffuse transmittance).
+// (`lengths`, by shell; null: none). Per shell, the share `chance` of the beam that meets cloud
+// is dimmed by exp(-tau') of the similarity-scaled optical depth of its length there (length /
+// chance), the rest passes (the mean transmittance, not exp(-mean tau): broken cloud lets the
+// gaps' light through); shells overlap at random. What the clouds scatter forwards joins the
+// diffuse part: the plane-parallel layer of the mean optical depth where there is cloud.
 Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, const CloudLengths* lengths = nullptr) {
   Sunlight s;
   if (mu_sun <= 0) return s;
@@ -590,15 +697,19 @@ Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, c
     s.direct[b] = e0 * direct;
     s.sky[b] = e0 * mu_sun * (rayleigh_down(air.tau_rayleigh[b], mu_sun) - direct);
     if (!lengths) continue;
-    double tau = 0, omega_tau = 0;  // along the Sun's path, scaled
+    double t_direct = 1, clear = 1, tau = 0, omega_tau = 0;  // tau: summed over shells, chance-weighted
     for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
-      const double t = c.shadow_scale[si][b] * c.vis_props[si].extinction_per_m * (*lengths)[si];
-      tau += t, omega_tau += t * c.shadow_omega[si][b];
+      const double p = lengths->chance[si];
+      if (!(p > 0)) continue;
+      const double t = c.shadow_scale[si][b] * c.vis_props[si].extinction_per_m * lengths->length[si] / p;
+      t_direct *= 1 - p + p * std::exp(-t), clear *= 1 - p;
+      tau += p * t, omega_tau += p * t * c.shadow_omega[si][b];
     }
     if (tau <= 0) continue;
-    const double t_direct = std::exp(-tau), tau_vertical = tau * mu_sun;
-    const double t_diffuse = std::max(
-        0.0, optics::two_stream_slab(tau_vertical, omega_tau / tau).transmittance - std::exp(-tau_vertical / 0.6));
+    const double cloudy = 1 - clear, tau_vertical = tau / cloudy * mu_sun;
+    const double t_diffuse =
+        cloudy * std::max(0.0, optics::two_stream_slab(tau_vertical, omega_tau / tau).transmittance -
+                                   std::exp(-tau_vertical / 0.6));
     s.sky[b] += s.direct[b] * mu_sun * t_diffuse;
     s.direct[b] *= t_direct;
   }
@@ -610,13 +721,16 @@ Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, c
 void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::size_t n, std::size_t skip,
                        std::vector<CloudLengths>& out) {
   out.assign(n, CloudLengths{});
-  thread_local std::vector<double> len;
-  len.resize(n);
+  thread_local std::vector<double> len, chance, footprint;
+  len.resize(n), chance.resize(n), footprint.resize(n);
+  // Filtered: the pixel's cone as wide as at the point along the whole sunward ray.
+  for (std::size_t i = 0; i < n; ++i) footprint[i] = c.spread * glm::length(points[i] - c.sensor.position);
   const int steps = std::max(6, c.params.steps / 2);
   for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
     if (si == skip) continue;
-    cloud_length_towards(c.scene.shells[si], points, c.sun_dir, n, steps, len.data());
-    for (std::size_t i = 0; i < n; ++i) out[i][si] = len[i];
+    cloud_length_towards(c.scene.shells[si], points, c.sun_dir, n, steps, len.data(),
+                         c.spread > 0 ? footprint.data() : nullptr, chance.data());
+    for (std::size_t i = 0; i < n; ++i) out[i].length[si] = len[i], out[i].chance[si] = chance[i];
   }
 }
 
@@ -638,8 +752,12 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double t_cloud = c.earth.temperature_k(g.lat_deg, g.lon_deg, L.altitude);
   const Microphysics m =
       microphysics(c, si, g.lat_deg, g.lon_deg, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
-  // The visible optical depth along the line of sight, of the element's own microphysics.
+  // The visible optical depth along the line of sight, of the element's own microphysics, its
+  // mean over the pixel.
+  const double cover = hit.coverage;
+  L.coverage = static_cast<float>(cover);
   L.tau_vis = static_cast<float>(
+      cover *
       optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, optics::band("vis")).extinction_per_m *
       hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
@@ -661,8 +779,9 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
              (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
     if (band.thermal) rad += lo.emissivity * c.tables.planck[b]->forward(t_cloud);
     const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
-    lb[b] = static_cast<float>(rad * air.t_view[b] * up_share);
-    lb[nb + b] = static_cast<float>(lo.transmittance);
+    // Over the pixel: the cloud's share of it, and the rest seen unobstructed.
+    lb[b] = static_cast<float>(cover * rad * air.t_view[b] * up_share);
+    lb[nb + b] = static_cast<float>(1 - cover * (1 - lo.transmittance));
   }
 }
 
@@ -687,7 +806,7 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
       const std::size_t row = static_cast<std::size_t>(y - rb.y0) * w;
       for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = rb.t_earth[row + x];
       march_shell(shell, c.sensor.position, dirs.data(), t_max.data(), dirs.size(), c.params.steps,
-                  c.params.bisection_iterations, row_hits.data());
+                  c.params.bisection_iterations, row_hits.data(), c.spread);
       // The clouds of the other shells towards the Sun from this row's hits.
       lit.clear(), lit_points.clear();
       for (int x = 0; x < w; ++x) {
@@ -809,15 +928,16 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
   }
   std::array<double, optics::max_band_count> path{};
   for (std::size_t b = 0; b < nb; ++b) rad[b] = 0, trans[b] = 1, path_above[b] = 0;
-  float tau = 0;
+  float tau = 0, clear = 1;  // the share of the pixel no layer covers
   for (std::size_t s = 0; s < ns; ++s) {
     const Layer& L = pl[order[s]];
     const float* const lb = &rb.layer_bands[(bpx * ns + order[s]) * rb.lbf];
     if (!std::isfinite(L.t)) break;
     const earth::Vec3 p = c.sensor.position + static_cast<double>(L.t) * d;
     const earth::Geodetic g = earth::geodetic(p);
+    clear *= 1 - L.coverage;
+    img.cloud_fraction[px] = 1 - clear;
     if (s == 0) {
-      img.cloud_fraction[px] = 1;
       img.cloud_top_altitude_m[px] = L.altitude;
       img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
       img.latitude_deg[px] = static_cast<float>(g.lat_deg);
@@ -1029,7 +1149,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const std::size_t npx = static_cast<std::size_t>(sensor.width) * static_cast<std::size_t>(sensor.height);
   const std::size_t nb = params.bands.size();
   std::vector<std::vector<double>> radiance(nb, std::vector<double>(npx, 0.0));
-  std::vector<double> tau(npx, 0.0), top(npx, 0.0);
+  std::vector<double> tau(npx, 0.0), top(npx, 0.0), fraction(npx, 0.0);
   std::vector<std::uint16_t> cloudy(npx, 0);
   std::vector<std::array<std::uint16_t, weather::cloud_type_count>> type_count(npx);
   RenderImage img;
@@ -1043,6 +1163,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
         tau[px] += sub.cloud_optical_depth[px];
+        fraction[px] += sub.cloud_fraction[px];
         const std::int8_t t = sub.cloud_type[px];
         if (t >= 0) {
           ++cloudy[px];
@@ -1082,7 +1203,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
 #pragma omp parallel for schedule(static)
   for (std::size_t px = 0; px < npx; ++px) {
     img.cloud_optical_depth[px] = static_cast<float>(tau[px] * inv_n);
-    img.cloud_fraction[px] = static_cast<float>(cloudy[px] * inv_n);
+    img.cloud_fraction[px] = static_cast<float>(fraction[px] * inv_n);
     if (cloudy[px] == 0) continue;
     img.cloud_top_altitude_m[px] = static_cast<float>(top[px] / cloudy[px]);
     const auto& c = type_count[px];

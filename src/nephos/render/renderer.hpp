@@ -30,6 +30,10 @@ struct RenderParams {
   /// Direct sunlight attenuated through the cloud shells on its way to the ground and to lower
   /// clouds. false (--no-shadows): every point lit as if no cloud stood between it and the Sun.
   bool shadows = true;
+  /// Anti-aliasing: each ray's cone (a pixel's, or with k > 1 a sub-pixel's, angle) filters the
+  /// fractal detail finer than its footprint (march_shell, CloudShell::classify_filtered).
+  /// false (--no-filter): point samples, the fractal model itself, aliased at coarse pixels.
+  bool filter = true;
   /// k: each pixel is sampled on a k x k grid of sub-pixel rays (--samples k^2, 1..16 per
   /// axis) and its radiance is their mean, the detector's integral over its footprint.
   int samples_per_axis = 1;
@@ -79,16 +83,27 @@ struct ShellHit {
   double t = 0;                  ///< distance to the first surface [m]
   earth::Vec3 position, normal;  ///< outward unit normal
   double depth_m = 0;            ///< cloud depth along the line of sight after the surface
-  bool marched = false;          ///< the empty-space skip left possible cloud on the path (every hit was)
+  /// The share of the pixel's cone that meets the cloud (filtered marches; 1 otherwise).
+  double coverage = 1;
+  bool marched = false;  ///< the empty-space skip left possible cloud on the path (every hit was)
 };
+
+/// Below this share of a pixel's cone in cloud, a filtered march's partial hit is kept at random
+/// in proportion (march_shell).
+constexpr double roulette_coverage = 0.05;
 
 /// Marches one shell along o + t d up to t_max (the Earth's surface or infinity).
 ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
-                     int steps, int bisection_iterations);
+                     int steps, int bisection_iterations, double spread = 0);
 /// Marches n rays o + t d[i] (t < t_max[i]) through one shell together, into hits[i]: the
 /// same result as n single-ray calls, faster (the rays' texture fetches overlap).
+/// spread > 0: the pixel's cone, spread t metres wide at distance t, filters the cloud
+/// (CloudShell::classify_filtered): the first surface is where the filtered cloud function
+/// crosses the threshold, or where it comes nearest (a partial hit; below roulette_coverage, kept
+/// with probability coverage / roulette_coverage, at that coverage);
+/// coverage is CloudShell::coverage() of the largest u met, depth the expected length of cloud over it.
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
-                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits);
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread = 0);
 
 /// Where the ray of sub-pixel (i, j) of a k x k grid crosses pixel (x, y) [pixels from its
 /// top-left corner, 0..1 each]: the sub-pixel's centre, or with `stratified` a point uniform in

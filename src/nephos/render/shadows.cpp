@@ -7,8 +7,9 @@
 namespace nephos::render {
 
 void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o, const earth::Vec3& d, std::size_t n,
-                          int steps, double* out) {
-  thread_local std::vector<double> t0, t1, px, py, pz, vals;
+                          int steps, double* out, const double* footprint_m, double* chance) {
+  thread_local std::vector<double> t0, t1, px, py, pz, vals, fp;
+  thread_local std::vector<clouds::PathCoverage> paths;
   thread_local std::vector<std::uint8_t> possible;
   thread_local std::vector<std::uint32_t> live;
   thread_local std::vector<earth::Vec3> pts;
@@ -45,22 +46,44 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   for (std::size_t k = 0; k < owner.size(); ++k) possible[owner[k]] |= found[k];
   for (std::size_t i = 0; i < n; ++i) {
     out[i] = 0;
+    if (chance) chance[i] = 0;
     if (possible[i]) live.push_back(static_cast<std::uint32_t>(i));
   }
   // The march: every live ray's step midpoints, classified together, step by step.
   const std::size_t nl = live.size();
-  pts.resize(nl), vals.resize(nl);
+  pts.resize(nl), vals.resize(nl), fp.resize(nl);
+  for (std::size_t j = 0; j < nl; ++j) fp[j] = footprint_m ? footprint_m[live[j]] : 0.0;
+  if (footprint_m) {
+    paths.resize(nl);
+    for (std::size_t j = 0; j < nl; ++j) paths[j] = clouds::PathCoverage(shell, fp[j], t1[live[j]] - t0[live[j]]);
+  }
   const double thr = shell.threshold();
   for (int k = 0; k < steps; ++k) {
     for (std::size_t j = 0; j < nl; ++j) {
       const std::uint32_t i = live[j];
       pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * (k + 0.5) / steps) * d;
     }
+    if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
+      shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
+      for (std::size_t j = 0; j < nl; ++j) {
+        const double ds = (t1[live[j]] - t0[live[j]]) / steps;
+        out[live[j]] += ds * shell.coverage(vals[j]);
+        paths[j].add(shell, vals[j], ds);
+      }
+      continue;
+    }
     shell.classify(pts.data(), nl, vals.data());
     for (std::size_t j = 0; j < nl; ++j) {
       const std::uint32_t i = live[j];
       if (vals[j] > thr) out[i] += (t1[i] - t0[i]) / steps;
     }
+  }
+  if (!chance) return;
+  // The chance of meeting cloud: 0 or 1 for a point sample; filtered, as the view rays' (the
+  // likeliest step's coverage, or more where the detail decorrelates along the path).
+  for (std::size_t j = 0; j < nl; ++j) {
+    const std::uint32_t i = live[j];
+    chance[i] = footprint_m ? paths[j].chance() : (out[i] > 0 ? 1.0 : 0.0);
   }
 }
 
