@@ -352,13 +352,16 @@ class PathCoverage {
   /// @param footprint_m  the footprint's width along the path [m]
   /// @param path_m       the path's length inside the shell [m]
   PathCoverage(const CloudShell& s, double footprint_m, double path_m);
-  /// One step of length ds_m [m] at filtered distance u (CloudShell::classify_filtered).
-  void add(const CloudShell& s, double u, double ds_m) {
-    c_max_ = std::max(c_max_, s.coverage(u));
-    if (!(u > s.u_min()) || rate_ <= 0) return;
-    for (int n = 0; n < CloudShell::z_node_count; ++n)
-      log_clear_[static_cast<std::size_t>(n)] +=
-          ds_m * rate_ * s.log_clear(u * scale_ + shift_[static_cast<std::size_t>(n)]);
+  /// One step of length ds_m [m] at filtered distance u (CloudShell::classify_filtered); returns
+  /// the step's coverage, coverage(u).
+  double add(const CloudShell& s, double u, double ds_m) {
+    const double c = s.coverage(u);
+    c_max_ = std::max(c_max_, c);
+    if (c > 0 && rate_ > 0) {
+      const double w = ds_m * rate_, x = u * scale_;
+      for (std::size_t n = 0; n < shift_.size(); ++n) log_clear_[n] += w * s.log_clear(x + shift_[n]);
+    }
+    return c;
   }
   double chance() const;
 

@@ -37,7 +37,6 @@ EarthView::EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, 
   }
   const std::size_t n = grid_.size();
   nodes_.resize(n);
-  columns_.assign(bands.size(), std::vector<atmosphere::ClearSkyColumn>(n));
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::size_t k = 0; k < n; ++k)
     build_node(k, static_cast<int>(k / static_cast<std::size_t>(grid_.nlon)),
@@ -98,7 +97,23 @@ void EarthView::build_node(std::size_t k, int j, int i) {
   if (!atmosphere_) return;
   // Nodes far beyond the sensor's horizon are never sampled.
   if (glm::dot(up, glm::normalize(sensor_position_ - ground)) < -0.3) return;
-  for (std::size_t b = 0; b < bands_.size(); ++b) columns_[b][k] = atmosphere::clear_sky_column(p, *bands_[b], g, lat);
+  const std::size_t nb = bands_.size();
+  for (std::size_t b = 0; b < nb; ++b) {
+    const atmosphere::ClearSkyColumn c = atmosphere::clear_sky_column(p, *bands_[b], g, lat);
+    if (b == 0) {
+      node.optics_z = c.z_m, node.optics.assign(c.z_m.size() * nb * optics_per_band, 0.0f);
+      node.view_air_mass = static_cast<float>(c.view_air_mass), node.sun_air_mass = static_cast<float>(c.sun_air_mass);
+    }
+    for (std::size_t l = 0; l < c.z_m.size(); ++l) {
+      float* o = &node.optics[(l * nb + b) * optics_per_band];
+      const double t_view = std::max(static_cast<double>(c.t_view[l]), 1e-30);
+      o[0] = static_cast<float>(std::log(t_view));
+      const double absorbed = 1 - t_view;  // the air's emission per unit absorptance: a mean Planck radiance
+      o[1] = absorbed > 1e-7 ? static_cast<float>(c.path_radiance[l] / absorbed) : 0.0f;
+      o[2] = static_cast<float>(std::log(std::clamp(c.t_solar[l] / t_view, 1e-30, 1.0)));  // the Sun path alone
+      o[3] = c.tau_rayleigh[l];
+    }
+  }
 }
 
 EarthView::Stencil EarthView::stencil(double lat, double lon) const {
@@ -135,32 +150,40 @@ void EarthView::air(double lat, double lon, double z, double mu_view, double mu_
   const Stencil s = stencil(lat, lon);
   const double m_view = atmosphere::air_mass(std::max(mu_view, 0.02));
   const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
-  for (std::size_t b = 0; b < nb; ++b) {
-    double tv = 0, pa = 0, ts = 0, tr = 0, wsum = 0;
-    for (std::size_t q = 0; q < 4; ++q) {
-      if (s.w[q] == 0) continue;
-      const atmosphere::ClearSkyColumn& c = columns_[b][s.node[q]];
-      if (!c.valid()) continue;
-      const atmosphere::ClearSkySample cs = atmosphere::sample(c, z);
-      // The node's column was computed for its own air masses: carry its transmittances to the
-      // pixel's (exact for a grey absorber) and its emission with its absorptance.
-      const double r = m_view / c.view_air_mass;
-      const double t_pix = std::pow(std::max(static_cast<double>(cs.t_view), 1e-30), r);
-      const double a_col = 1 - cs.t_view;
-      const double path = a_col > 1e-6 ? cs.path_radiance * (1 - t_pix) / a_col : cs.path_radiance * r;
-      double t_sun = 1;
-      if (m_sun > 0 && c.sun_air_mass > 0 && cs.t_view > 1e-30) {
-        const double sun_col = std::max(static_cast<double>(cs.t_solar) / cs.t_view, 1e-30);  // Sun path alone
-        t_sun = std::min(1.0, std::pow(sun_col, m_sun / c.sun_air_mass));
-      } else if (m_sun <= 0) {
-        t_sun = 0;
-      }
-      tv += s.w[q] * t_pix, pa += s.w[q] * path, ts += s.w[q] * t_sun, tr += s.w[q] * cs.tau_rayleigh;
-      wsum += s.w[q];
+  std::array<double, optics::max_band_count> tv{}, pa{}, ts{}, tr{};
+  double wsum = 0;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (s.w[q] == 0) continue;
+    const Node& node = nodes_[s.node[q]];
+    if (node.optics_z.empty()) continue;
+    // The level interval holding z, once for every band.
+    const std::size_t n = node.optics_z.size();
+    std::size_t hi = static_cast<std::size_t>(
+        std::upper_bound(node.optics_z.begin(), node.optics_z.end(), static_cast<float>(z)) - node.optics_z.begin());
+    hi = std::clamp<std::size_t>(hi, 1, n - 1);
+    const double f = std::clamp((z - node.optics_z[hi - 1]) / (node.optics_z[hi] - node.optics_z[hi - 1]), 0.0, 1.0);
+    const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
+    const float* hi_level = &node.optics[hi * nb * optics_per_band];
+    // The node's column was computed for its own air masses: its transmittances carried to the
+    // pixel's (exact for a grey absorber), its emission with its absorptance (the air's mean
+    // Planck radiance times 1 - t).
+    const double r = m_view / node.view_air_mass;
+    const double r_sun = m_sun > 0 && node.sun_air_mass > 0 ? m_sun / node.sun_air_mass : -1.0;
+    for (std::size_t b = 0; b < nb; ++b) {
+      const float* a = lo_level + b * optics_per_band;
+      const float* c = hi_level + b * optics_per_band;
+      const double t_pix = std::exp(r * (a[0] + f * (c[0] - a[0])));
+      const double path = (a[1] + f * (c[1] - a[1])) * (1 - t_pix);
+      const double t_sun = r_sun > 0 ? std::exp(r_sun * (a[2] + f * (c[2] - a[2]))) : (m_sun <= 0 ? 0.0 : 1.0);
+      tv[b] += s.w[q] * t_pix, pa[b] += s.w[q] * path, ts[b] += s.w[q] * t_sun;
+      tr[b] += s.w[q] * (a[3] + f * (c[3] - a[3]));
     }
-    if (wsum <= 0) continue;
-    out.t_view[b] = static_cast<float>(tv / wsum), out.path[b] = static_cast<float>(pa / wsum);
-    out.t_sun[b] = static_cast<float>(ts / wsum), out.tau_rayleigh[b] = static_cast<float>(tr / wsum);
+    wsum += s.w[q];
+  }
+  if (wsum <= 0) return;
+  for (std::size_t b = 0; b < nb; ++b) {
+    out.t_view[b] = static_cast<float>(tv[b] / wsum), out.path[b] = static_cast<float>(pa[b] / wsum);
+    out.t_sun[b] = static_cast<float>(ts[b] / wsum), out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
   }
 }
 

@@ -50,7 +50,16 @@ class EarthView {
     std::vector<float> z, t, condensate;  // levels: altitude [m], temperature [K], condensate [g m^-3]
     float ground_height_m = 0;
     surface::State ground;
+    // The column's clear-sky optics (atmosphere::clear_sky_column) at its levels optics_z, per
+    // level and band: ln of the gas transmittance to the sensor, the air's path radiance over its
+    // absorptance 1 - t (a mean Planck radiance of the air between), ln of
+    // the Sun path's own transmittance, the Rayleigh optical depth above. Logarithms, so that a
+    // pixel's air mass m scales them by m / m_node (exp, not pow) and they interpolate in z as
+    // the exponentials they are.
+    std::vector<float> optics_z, optics;
+    float view_air_mass = 1, sun_air_mass = -1;
   };
+  static constexpr std::size_t optics_per_band = 4;
   struct Stencil {
     std::array<std::size_t, 4> node{};
     std::array<double, 4> w{};
@@ -65,7 +74,6 @@ class EarthView {
   double ground_temperature_k_;
   earth::Vec3 sensor_position_, sun_direction_;
   std::vector<Node> nodes_;
-  std::vector<std::vector<atmosphere::ClearSkyColumn>> columns_;  // [band][node]
   double seconds_ = 0;
 };
 

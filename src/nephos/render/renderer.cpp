@@ -345,8 +345,8 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
     for (std::size_t j = 0; j < nr; ++j) {
       const double u = vals[j];
       if (u > u_min) {  // else coverage 0
-        soft[j] = std::fma(end_weight * ds[j], shell.coverage(u), soft[j]);
-        w.paths[j].add(shell, u, end_weight * ds[j]);
+        const double dl = end_weight * ds[j];
+        soft[j] = std::fma(dl, w.paths[j].add(shell, u, dl), soft[j]);
       }
       const bool more = u > u_max[j], first = (k_hit[j] < 0) & (u > 0);
       u_max[j] = more ? u : u_max[j];

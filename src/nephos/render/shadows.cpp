@@ -67,8 +67,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
       shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
       for (std::size_t j = 0; j < nl; ++j) {
         const double ds = (t1[live[j]] - t0[live[j]]) / steps;
-        out[live[j]] += ds * shell.coverage(vals[j]);
-        paths[j].add(shell, vals[j], ds);
+        out[live[j]] += ds * paths[j].add(shell, vals[j], ds);
       }
       continue;
     }
