@@ -119,7 +119,7 @@ class Scene {
 
   py::dict render(const std::string& sensor, std::pair<int, int> size, const std::vector<std::string>& bands, int steps,
                   const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere, bool shadows,
-                  bool filter) const {
+                  bool filter, const std::string& scene, int abi_step) const {
     render::ViewRequest view;
     view.sensor = sensor;
     std::tie(view.width, view.height) = size;
@@ -130,6 +130,8 @@ class Scene {
     view.atmosphere = atmosphere;
     view.shadows = shadows;
     view.filter = filter;
+    view.scene = scene;
+    view.abi_step = abi_step;
     if (time) view.time = parse_time(*time, "time");
     require_image_size(view.width, view.height, "size");
     // The arrays handed to Python hold a copy of the image: as much again as the renderer's.
@@ -491,14 +493,18 @@ void def_weather_and_scene(py::module_& m) {
       .def("render", &Scene::render, py::arg("sensor") = "geo:-75.2", py::arg("size") = std::make_pair(1000, 1000),
            py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
            py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
-           py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true,
+           py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true, py::arg("scene") = "full",
+           py::arg("abi_step") = 1,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
            "['all']; atmosphere, shadows: False leaves them out; filter: False renders point samples, detail finer "
            "than a pixel unfiltered): a dict of (height, width) arrays radiance_<band> "
            "[W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
-           "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG' or a camera TOML "
-           "file; time: ISO 8601 UTC (default: the weather's valid time).");
+           "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
+           "'abi:west', 'abi:LON' (the GOES-R fixed grid: sector `scene` 'full', 'conus' or 'meso:LAT,LON', coarsened "
+           "by "
+           "abi_step; size is the sector's) or a camera TOML file; time: ISO 8601 UTC (default: the weather's valid "
+           "time).");
 }
 
 // nephos.Flight.

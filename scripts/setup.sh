@@ -26,6 +26,7 @@ packages=(
   libgtest-dev libgmock-dev           # tests
   libbenchmark-dev                    # benchmarks
   python3 python3-numpy python3-xarray python3-netcdf4   # interoperability tests (xarray reads our NetCDF)
+  python3-satpy                       # interoperability tests (satpy reads our ABI L1b files)
   python3-dev pybind11-dev            # the Python module (numpy arrays)
 )
 

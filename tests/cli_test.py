@@ -303,6 +303,123 @@ class Render(unittest.TestCase):
                 self.assertFalse(out.exists(), args)
 
 
+class AbiL1b(unittest.TestCase):
+    # nephos's ABI sensor on the GOES-R fixed grid and its L1b files, read by satpy's abi_l1b
+    # reader (Debian's python3-satpy) as it reads real GOES-16 files. A full disc coarsened
+    # 32-fold (band 2 at 16 km, the others at 64 km), 32^3 textures. References: satpy's own
+    # calibration and pyresample/PROJ's geostationary projection, code apart from nephos's.
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        d = Path(cls.tmp.name)
+        common = ["render", "--sensor", "abi:east", "--abi-step", "32", "--texture", "32", "--time",
+                  "2011-01-15T15:00:00Z"]
+        cls.l1b = run(*common, "--bands", "vis,mwir,wv62,wv73,o3,lwir", "--format", "abi-l1b", "--out", d / "l1b")
+        cls.thermal = run(*common, "--bands", "mwir,wv62,wv73,o3,lwir", "--out", d / "thermal")
+        cls.vis = run(*common, "--bands", "vis", "--out", d / "vis")
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def scene(self):
+        import warnings
+        warnings.filterwarnings("ignore")
+        from satpy import Scene
+        for r in (self.l1b, self.thermal, self.vis):
+            self.assertEqual(r.returncode, 0, r.stderr)
+        files = sorted(str(p) for p in (Path(self.tmp.name) / "l1b").glob("*.nc"))
+        self.assertEqual(len(files), 6)
+        for f in files:  # the names ABI gives its files
+            self.assertRegex(Path(f).name, r"^OR_ABI-L1b-RadF-M6C\d\d_G16_s20110151500000_e\d{14}_c\d{14}\.nc$")
+        return Scene(reader="abi_l1b", filenames=files)
+
+    def test_satpy_calibrates_to_nephos_values(self):
+        # Brightness temperatures from Rad by satpy's calibration equal nephos's own to 0.05 K
+        # wherever Rad's 15-bit packing resolves 0.05 K (bands 8 and 13 everywhere; band 7 above
+        # ~250 K: its radiance spans 10^4 between 200 and 350 K), elsewhere to half a packing
+        # step (the format's own limit; ABI's 14-bit band 7 is coarser still). The reflectance factor
+        # equals pi L d^2 / esun of nephos's radiance to 0.1 percentage points (the packing's
+        # 1.5 / 32766), d from the orbit's eccentricity (1 - 0.01672 cos(0.9856 deg (doy - 4)),
+        # 1e-4 AU). Faults caught: a thermal band's Rad in nephos's W m-2 sr-1 um-1 (tens of K
+        # off), the Earth-Sun distance written as 1 AU (3 % in January), rows written south first.
+        import math
+        import netCDF4
+        import numpy as np
+        scn = self.scene()
+        scn.load(["C02", "C07", "C08", "C13"])
+        d = Path(self.tmp.name)
+        nc = netCDF4.Dataset(d / "thermal" / "render.nc")
+        for channel, band in (("C07", "mwir"), ("C08", "wv62"), ("C13", "lwir")):
+            satpy_bt = scn[channel].values
+            ours = np.ma.filled(nc["brightness_temperature_" + band][:], np.nan)
+            self.assertEqual(satpy_bt.shape, ours.shape)
+            valid = np.isfinite(satpy_bt) & np.isfinite(ours)
+            self.assertGreater(valid.sum(), 15000, channel)  # of 169^2, the disc's ~22 000
+            f = netCDF4.Dataset(next((d / "l1b").glob(f"*{channel}_G16*.nc")))
+            f.set_auto_mask(False)
+            fk1, fk2, bc2 = (float(f[k][...]) for k in ("planck_fk1", "planck_fk2", "planck_bc2"))
+            rad = fk1 / (np.exp(fk2 / (float(f["planck_bc1"][...]) + bc2 * ours[valid])) - 1)
+            dbt_drad = fk2 * fk1 / (bc2 * rad * (rad + fk1) * np.log(fk1 / rad + 1) ** 2)
+            half_step = 0.5 * float(f["Rad"].scale_factor) * dbt_drad
+            tolerance = np.maximum(0.05, 1.001 * half_step)
+            self.assertTrue(np.all(np.abs(satpy_bt[valid] - ours[valid]) <= tolerance), channel)
+            if channel != "C07":
+                self.assertTrue(np.all(half_step < 0.05), channel)
+        radiance = np.ma.filled(netCDF4.Dataset(d / "vis" / "render.nc")["radiance_vis"][:], np.nan)
+        au = 1 - 0.01672 * math.cos(math.radians(0.9856 * (15 - 4)))
+        expected = 100 * math.pi * radiance * au * au / 1631.3351  # band 2's esun (GOES-16 L1b)
+        reflectance = scn["C02"].values
+        valid = np.isfinite(reflectance) & np.isfinite(expected)
+        self.assertGreater(valid.sum(), 250000)
+        self.assertLess(np.max(np.abs(reflectance[valid] - expected[valid])), 0.1)
+
+    def test_satpys_geolocation_is_nephos_s(self):
+        # pyresample's longitudes and latitudes of the file's area (PROJ's geos projection from x,
+        # y and goes_imager_projection) against the Earth point nephos's pixel saw, on cloud-free
+        # pixels within 70 deg of the satellite's nadir: within 0.5 km (the issue's bound; float32
+        # latitudes in render.nc are ~1 m). Faults caught: x and y scale or offset of another
+        # resolution (tens of km at the limb), the projection origin at -75.2 instead of -75.0
+        # (22 km).
+        import netCDF4
+        import numpy as np
+        scn = self.scene()
+        scn.load(["C13"])
+        lons, lats = scn["C13"].attrs["area"].get_lonlats()
+        nc = netCDF4.Dataset(Path(self.tmp.name) / "thermal" / "render.nc")
+        lat = np.ma.filled(nc["latitude"][:], np.nan)
+        lon = np.ma.filled(nc["longitude"][:], np.nan)
+        clear = np.ma.filled(nc["cloud_fraction"][:], 1.0) == 0
+        r = 6371.0088
+        p = np.stack([np.cos(np.radians(lat)) * np.cos(np.radians(lon)), np.cos(np.radians(lat)) * np.sin(np.radians(lon)),
+                      np.sin(np.radians(lat))]) * r
+        sat = np.array([np.cos(np.radians(-75.0)), np.sin(np.radians(-75.0)), 0.0])[:, None, None] * 42164.16
+        to_sat = sat - p
+        cos_vza = np.sum(to_sat * p, axis=0) / (np.linalg.norm(to_sat, axis=0) * r)
+        ok = clear & np.isfinite(lats) & np.isfinite(lat) & (cos_vza > np.cos(np.radians(70)))
+        self.assertGreater(ok.sum(), 5000)
+        a = np.radians(np.stack([lats[ok], lons[ok], lat[ok], lon[ok]]))
+        cos_d = np.sin(a[0]) * np.sin(a[2]) + np.cos(a[0]) * np.cos(a[2]) * np.cos(a[1] - a[3])
+        distance_km = r * np.arccos(np.clip(cos_d, -1, 1))
+        self.assertLess(distance_km.max(), 0.5)
+
+    def test_a_satpy_composite_builds(self):
+        # satpy's airmass composite (bands 8, 10, 12, 13) from nephos's files: an RGB of the grid.
+        scn = self.scene()
+        scn.load(["airmass"])
+        self.assertEqual(scn["airmass"].shape, (3, 169, 169))  # 5424 / 32, whole pixels
+
+    def test_bad_abi_requests(self):
+        r = run("render", "--sensor", "abi:east", "--scene", "meso:35,100", "--abi-step", "8", "--out",
+                Path(self.tmp.name) / "bad")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("scene", r.stderr)
+        r = run("render", "--sensor", "geo:-75.2", "--format", "abi-l1b", "--out", Path(self.tmp.name) / "bad")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("abi-l1b needs an ABI sensor", r.stderr)
+        self.assertFalse((Path(self.tmp.name) / "bad").exists())
+
+
 class Lbm(unittest.TestCase):
     def test_run_checkpoint_and_resume_are_identical(self):
         import netCDF4

@@ -33,6 +33,9 @@ struct RenderOptions {
   std::string time;
   std::string config;
   std::string out = "out";
+  std::string scene = "full";
+  int abi_step = 1;
+  std::string format = "netcdf";
 };
 
 render::RenderRequest request_of(const RenderOptions& o, const GlobalOptions& g) {
@@ -58,6 +61,9 @@ render::RenderRequest request_of(const RenderOptions& o, const GlobalOptions& g)
   r.advance_hours = o.advance_hours;
   r.frames = o.frames;
   r.out = o.out;
+  r.view.scene = o.scene;
+  r.view.abi_step = o.abi_step;
+  r.format = o.format;
   return r;
 }
 
@@ -71,7 +77,7 @@ int run(const RenderOptions& o, const GlobalOptions& g) {
           summary += fmt::format(" {} {:.0f} ms,", name, secs * 1e3);
         if (!summary.empty()) summary.pop_back();
         std::cout << fmt::format("frame {}: {}x{} px, {} ray{} per pixel, {} steps, texture {}^3:{} ({})\n", frame,
-                                 r.view.width, r.view.height, r.view.samples, r.view.samples == 1 ? "" : "s",
+                                 v.image.width, v.image.height, r.view.samples, r.view.samples == 1 ? "" : "s",
                                  r.view.steps, scene.params().texture_size, summary, threads_text());
       });
   spdlog::info("wrote {} in {:.1f} s", r.out.string(),
@@ -85,7 +91,9 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
   auto o = std::make_shared<RenderOptions>();
   auto* rend = app.add_subcommand("render", "Render 3D fractal clouds from a sensor (GEO, LEO or any camera)");
   add_weather_source_options(rend, o->weather);
-  rend->add_option("--sensor", o->sensor, "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | camera TOML file")
+  rend->add_option("--sensor", o->sensor,
+                   "geo:LON | leo:LAT,LON,ALT_KM,FOV_DEG | abi:east | abi:west | abi:LON (the GOES-R fixed grid) | "
+                   "camera TOML file")
       ->capture_default_str();
   rend->add_option("--size", o->size, "Focal-plane array WIDTHxHEIGHT [pixels]")->capture_default_str();
   rend->add_option("--types", o->types, "Cloud types, comma-separated")->capture_default_str();
@@ -117,6 +125,13 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
   rend->add_option("--time", o->time, "UTC time for the Sun, ISO 8601 (default: the weather's valid time)");
   rend->add_option("--config", o->config, "TOML with [clouds.*], [textures], [displacement], [masks.*] parameters");
   rend->add_option("--out", o->out, "Output directory")->capture_default_str();
+  rend->add_option("--scene", o->scene, "abi sensors: full | conus | meso:LAT,LON (the sector; --size is ignored)")
+      ->capture_default_str();
+  rend->add_option("--abi-step", o->abi_step, "abi sensors: coarsen the fixed grid by N (quick looks)")
+      ->capture_default_str();
+  rend->add_option("--format", o->format,
+                   "netcdf (render.nc, render.exr, PNGs) | abi-l1b (one ABI L1b NetCDF file per band; abi sensors)")
+      ->capture_default_str();
   return {rend, [o, &g] { return run(*o, g); }};
 }
 

@@ -38,13 +38,14 @@ int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::
   const nc_type t = type == NcType::f32   ? NC_FLOAT
                     : type == NcType::f64 ? NC_DOUBLE
                     : type == NcType::i32 ? NC_INT
+                    : type == NcType::i16 ? NC_SHORT
                                           : NC_BYTE;
   int var = 0;
   check(nc_def_var(ncid_, name.c_str(), t, static_cast<int>(ids.size()), ids.data(), &var),
         "cannot define variable " + name);
   // Shuffle + deflate level 1: float fields compress little past it, and higher levels cost
   // far more time to write (docs/PERFORMANCE.md, design choices).
-  if (!dims.empty() && (type == NcType::f32 || type == NcType::f64))
+  if (!dims.empty() && (type == NcType::f32 || type == NcType::f64 || type == NcType::i16))
     check(nc_def_var_deflate(ncid_, var, 1, 1, 1), "cannot enable compression for " + name);
   return var;
 }
@@ -72,6 +73,11 @@ void NetcdfWriter::put_attribute_i8(int var, const std::string& name, const std:
         "cannot write attribute " + name);
 }
 
+void NetcdfWriter::put_attribute_i16(int var, const std::string& name, const std::vector<std::int16_t>& values) {
+  check(nc_put_att_short(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_SHORT, values.size(), values.data()),
+        "cannot write attribute " + name);
+}
+
 void NetcdfWriter::put_attribute_u64(int var, const std::string& name, std::uint64_t value) {
   const unsigned long long v = value;
   check(nc_put_att_ulonglong(ncid_, var == global ? NC_GLOBAL : var, name.c_str(), NC_UINT64, 1, &v),
@@ -88,6 +94,10 @@ void NetcdfWriter::write(int var, const std::int32_t* data) {
 }
 void NetcdfWriter::write(int var, const std::int8_t* data) {
   check(nc_put_var_schar(ncid_, var, reinterpret_cast<const signed char*>(data)), "cannot write data");
+}
+
+void NetcdfWriter::write(int var, const std::int16_t* data) {
+  check(nc_put_var_short(ncid_, var, data), "cannot write data");
 }
 
 void NetcdfWriter::close() {

@@ -14,7 +14,7 @@ class AtomicFile;
 
 namespace nephos::io {
 
-enum class NcType { f32, f64, i32, i8 };
+enum class NcType { f32, f64, i32, i16, i8 };
 
 class NetcdfWriter {
  public:
@@ -33,6 +33,7 @@ class NetcdfWriter {
   void put_attribute(int var, const std::string& name, const std::vector<double>& values);
   void put_attribute_f32(int var, const std::string& name, const std::vector<float>& values);
   void put_attribute_i8(int var, const std::string& name, const std::vector<std::int8_t>& values);
+  void put_attribute_i16(int var, const std::string& name, const std::vector<std::int16_t>& values);
   /// An unsigned 64-bit integer (NetCDF-4's NC_UINT64): exact where a double would round (seeds
   /// beyond 2^53).
   void put_attribute_u64(int var, const std::string& name, std::uint64_t value);
@@ -42,6 +43,7 @@ class NetcdfWriter {
   void write(int var, const double* data);
   void write(int var, const std::int32_t* data);
   void write(int var, const std::int8_t* data);
+  void write(int var, const std::int16_t* data);
   /// Closes and renames into place.
   void close();
 

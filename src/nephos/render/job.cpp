@@ -6,6 +6,7 @@
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/core/parse.hpp"
+#include "nephos/render/abi_l1b.hpp"
 #include "nephos/weather/masks.hpp"
 
 namespace nephos::render {
@@ -14,6 +15,23 @@ std::vector<weather::CloudType> SceneRequest::all_cloud_types() {
   std::vector<weather::CloudType> all;
   for (int t = 0; t < weather::cloud_type_count; ++t) all.push_back(static_cast<weather::CloudType>(t));
   return all;
+}
+
+namespace {
+// A view's band names with "all" spelled out (checked by RenderParams::set_bands).
+std::vector<std::string> band_names(const std::vector<std::string>& bands) {
+  if (bands.size() != 1 || bands[0] != "all") return bands;
+  std::vector<std::string> all;
+  for (const auto& b : optics::bands()) all.push_back(b.name);
+  return all;
+}
+}  // namespace
+
+double ViewRequest::resolution_km() const {
+  if (abi_resolution_km > 0) return abi_resolution_km;
+  double r = 0.5;
+  for (const auto& b : band_names(bands)) r = std::max(r, abi_native_resolution_km(optics::band(b).abi_band));
+  return r;
 }
 
 RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
@@ -44,13 +62,36 @@ clouds::ModelConfig scene_config(const SceneRequest& request) {
 // memory (the renderer's plus extra_bytes_per_pixel).
 std::pair<Sensor, RenderParams> checked_view(const ViewRequest& view, std::uint64_t seed,
                                              double extra_bytes_per_pixel) {
-  require_image_size(view.width, view.height, "size");
+  const bool abi = view.sensor.rfind("abi:", 0) == 0;
+  if (!abi) require_image_size(view.width, view.height, "size");
   RenderParams rp = render_params(view, seed);
-  Sensor sensor = parse_sensor(view.sensor, view.width, view.height);
-  require_memory(render_memory_bytes(view.width, view.height, rp) +
-                     extra_bytes_per_pixel * view.width * static_cast<double>(view.height),
-                 "size", fmt::format("a {}x{} image with {} rays per pixel", view.width, view.height, view.samples));
+  Sensor sensor = abi ? parse_sensor(view.sensor, 0, 0, view.scene, view.resolution_km(), view.abi_step)
+                      : parse_sensor(view.sensor, view.width, view.height);
+  if (abi) require_image_size(sensor.width, sensor.height, "abi_step");  // a 0.5 km full disc needs a step
+  const int w = sensor.width, h = sensor.height;
+  require_memory(render_memory_bytes(w, h, rp) + extra_bytes_per_pixel * w * static_cast<double>(h), "size",
+                 fmt::format("a {}x{} image with {} rays per pixel", w, h, view.samples));
   return {std::move(sensor), std::move(rp)};
+}
+
+// The views a frame of `request` renders: its view, or for ABI L1b output one per native
+// resolution of its bands (finest first), each on that resolution's grid.
+std::vector<ViewRequest> frame_views(const RenderRequest& request) {
+  if (request.format == "netcdf") return {request.view};
+  if (request.format != "abi-l1b") throw ValueError("'" + request.format + "': netcdf or abi-l1b", {.key = "format"});
+  if (request.view.sensor.rfind("abi:", 0) != 0)
+    throw ValueError("abi-l1b needs an ABI sensor (abi:east, abi:west or abi:LON)", {.key = "format"});
+  render_params(request.view, 0);  // the bands checked first
+  std::vector<ViewRequest> views;
+  for (double res : {0.5, 1.0, 2.0}) {
+    ViewRequest v = request.view;
+    v.bands.clear();
+    for (const auto& b : band_names(request.view.bands))
+      if (abi_native_resolution_km(optics::band(b).abi_band) == res) v.bands.push_back(b);
+    v.abi_resolution_km = res;
+    if (!v.bands.empty()) views.push_back(std::move(v));
+  }
+  return views;
 }
 
 }  // namespace
@@ -104,7 +145,8 @@ void run_render(
   // Everything that needs no weather is checked first, so that bad input fails fast and
   // writes nothing: the view (with the previews' byte per pixel and channel), the frame
   // count and advance, the scene's parameters.
-  checked_view(request.view, request.scene.seed, 3.0);
+  const std::vector<ViewRequest> views = frame_views(request);
+  for (const ViewRequest& v : views) checked_view(v, request.scene.seed, 3.0);
   if (request.frames < 1) throw ValueError("must be >= 1", {.key = "frames"});
   require_range(request.advance_hours, -clouds::CloudModelParams::max_displace_hours,
                 clouds::CloudModelParams::max_displace_hours, "advance_hours", "the advance per frame [h]");
@@ -116,14 +158,22 @@ void run_render(
   ensure_directory(request.out);
   for (int frame = 0; frame < request.frames; ++frame) {
     if (frame > 0) scene.advance(request.advance_hours, "advance_hours");
-    const RenderedView view = scene.render(request.view, 3.0);
     const std::filesystem::path dir =
         request.frames == 1 ? request.out : request.out / fmt::format("frame_{:03d}", frame);
     ensure_directory(dir);
-    write_render_netcdf(dir / "render.nc", view.image, scene.metadata(request.view, view));
-    write_render_exr(dir / "render.exr", view.image);
-    write_render_previews(dir, view.image);
-    if (on_frame) on_frame(frame, dir, scene, view);
+    for (const ViewRequest& v : views) {
+      const RenderedView view = scene.render(v, 3.0);
+      if (request.format == "abi-l1b") {
+        for (const auto& path :
+             write_abi_l1b(dir, view.image, *view.sensor.fixed_grid, view.time, view.sun.distance_au))
+          spdlog::info("wrote {}", path.string());
+      } else {
+        write_render_netcdf(dir / "render.nc", view.image, scene.metadata(v, view));
+        write_render_exr(dir / "render.exr", view.image);
+        write_render_previews(dir, view.image);
+      }
+      if (on_frame) on_frame(frame, dir, scene, view);
+    }
   }
 }
 

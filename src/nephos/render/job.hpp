@@ -37,13 +37,20 @@ struct ViewRequest {
   std::string sensor = "geo:-75.2";  ///< "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG" or a camera TOML file
   int width = 1000, height = 1000;   ///< focal-plane array [pixels]
   std::vector<std::string> bands{"vis", "nir", "lwir"};
-  int steps = 25;               ///< ray-marching steps per shell
-  int samples = 1;              ///< rays per pixel, a square k^2 (1..256)
-  bool sample_grid = false;     ///< sub-pixel rays at the sub-pixels' centres, not stratified
-  bool atmosphere = true;       ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
-  bool shadows = true;          ///< clouds shade the ground and lower clouds from direct sunlight
-  bool filter = true;           ///< fractal detail finer than a pixel filtered (false: point samples, aliased)
-  std::optional<UtcTime> time;  ///< UTC for the Sun; empty: the weather's valid time
+  int steps = 25;                ///< ray-marching steps per shell
+  int samples = 1;               ///< rays per pixel, a square k^2 (1..256)
+  bool sample_grid = false;      ///< sub-pixel rays at the sub-pixels' centres, not stratified
+  bool atmosphere = true;        ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
+  bool shadows = true;           ///< clouds shade the ground and lower clouds from direct sunlight
+  bool filter = true;            ///< fractal detail finer than a pixel filtered (false: point samples, aliased)
+  std::optional<UtcTime> time;   ///< UTC for the Sun; empty: the weather's valid time
+  std::string scene = "full";    ///< abi sensors: "full", "conus" or "meso:LAT,LON" (width, height: the sector's)
+  int abi_step = 1;              ///< abi sensors: the fixed grid coarsened by this factor
+  double abi_resolution_km = 0;  ///< abi sensors: 0.5, 1 or 2; 0: the coarsest native one of the bands
+
+  /// The fixed grid's resolution of an abi sensor's view [km]: abi_resolution_km, or the coarsest
+  /// native resolution of the bands.
+  double resolution_km() const;
 };
 
 /// A view rendered: the image and what it was rendered with.
@@ -93,6 +100,9 @@ struct RenderRequest {
   double advance_hours = 0;  ///< wind displacement before the first frame and between frames [h]
   int frames = 1;
   std::filesystem::path out = "out";
+  /// "netcdf": render.nc, render.exr and PNG previews; "abi-l1b": one ABI L1b file per band
+  /// (abi sensors; each band on its native resolution's grid, coarsened by abi_step).
+  std::string format = "netcdf";
 };
 
 /// Runs `request`; `on_frame` (optional) sees each frame after it is written, with its folder

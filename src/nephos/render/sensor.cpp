@@ -7,6 +7,7 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/parse.hpp"
+#include "nephos/earth/earth.hpp"
 
 namespace nephos::render {
 namespace {
@@ -77,7 +78,50 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
   return Sensor::look_at(from, to, fov, width, height, up.empty() ? nullptr : &hint);
 }
 
-Sensor parse_sensor(const std::string& spec, int width, int height) {
+earth::Vec3 FixedGridView::ray(const earth::Vec3& position, double x, double y) const {
+  const double xs = sector.x0_rad + (x - 0.5) * sector.dx_rad, ys = sector.y0_rad + (y - 0.5) * sector.dy_rad;
+  double lat = 0, lon = 0;
+  if (!projection.to_geodetic(xs, ys, lat, lon)) return projection.line_of_sight(xs, ys);
+  return glm::normalize(earth::radius_m * earth::unit_from_latlon(lat, lon) - position);
+}
+
+Sensor Sensor::abi(const FixedGridView& view) {
+  Sensor s;
+  s.position = view.projection.satellite_ecef();
+  s.forward = -glm::normalize(s.position);
+  s.up = earth::Vec3{0, 0, 1};
+  s.right = glm::normalize(glm::cross(s.forward, s.up));
+  s.width = view.sector.nx, s.height = view.sector.ny;
+  s.fov_deg = 2 * std::atan(0.5 * view.sector.dx_rad * view.sector.nx) / earth::deg;
+  s.fixed_grid = std::make_shared<const FixedGridView>(view);
+  s.description = fmt::format("ABI fixed grid ({}, projection origin {:.1f} deg), {} sector, {:g} km x {} = {}x{} px",
+                              view.platform, view.projection.lon0_deg, view.sector.scene, view.sector.resolution_km,
+                              view.sector.step, view.sector.nx, view.sector.ny);
+  return s;
+}
+
+FixedGridView abi_view(const std::string& spec, const std::string& scene, double resolution_km, int step) {
+  FixedGridView v;
+  const std::string which = spec.substr(4);
+  if (which == "east") {
+    v.projection.lon0_deg = -75.0, v.nominal_subpoint_lon_deg = -75.2, v.platform = "G16";
+  } else if (which == "west") {
+    v.projection.lon0_deg = -137.0, v.nominal_subpoint_lon_deg = -137.2, v.platform = "G18";
+  } else {
+    const double lon = earth::wrap_lon_180(parse_numbers(which, 1, "sensor", "abi:east, abi:west or abi:LON")[0]);
+    v.projection.lon0_deg = v.nominal_subpoint_lon_deg = lon;
+    v.platform = std::abs(lon + 75) <= std::abs(lon + 137) ? "G16" : "G18";  // the nearer GOES position's
+  }
+  v.sector = fixed_grid_sector(v.projection, scene, resolution_km, step);
+  if (v.sector.nx < 1 || v.sector.ny < 1)
+    throw ValueError(fmt::format("abi_step {} leaves no pixel of the {} sector", step, v.sector.scene),
+                     {.key = "abi_step"});
+  return v;
+}
+
+Sensor parse_sensor(const std::string& spec, int width, int height, const std::string& scene, double resolution_km,
+                    int abi_step) {
+  if (spec.rfind("abi:", 0) == 0) return Sensor::abi(abi_view(spec, scene, resolution_km, abi_step));
   // Longitudes east in either convention, [-180, 180] or GRIB's [0, 360]; beyond, a typing error.
   auto check_longitude = [](double lon_deg, const char* orbit) {
     if (!(lon_deg >= -180 && lon_deg <= 360))
@@ -103,7 +147,8 @@ Sensor parse_sensor(const std::string& spec, int width, int height) {
     d.check_unused();
     return s;
   }
-  throw ValueError("sensor '" + spec + "' is neither geo:LON, leo:LAT,LON,ALT_KM,FOV_DEG nor an existing TOML file",
+  throw ValueError("sensor '" + spec +
+                       "' is neither geo:LON, leo:LAT,LON,ALT_KM,FOV_DEG, abi:east|west|LON nor an existing TOML file",
                    {.key = "sensor"});
 }
 

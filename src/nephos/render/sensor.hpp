@@ -2,14 +2,30 @@
 // A sensor: a pinhole camera in Earth-fixed space with a focal-plane array of width x height
 // pixels and a horizontal field of view (square pixels). Presets for a geostationary full-disc
 // imager and a nadir-looking low-orbit imager; a general look-at form for oblique views.
+#include <memory>
 #include <string>
 
 #include "nephos/core/config.hpp"
 #include "nephos/earth/geometry.hpp"
+#include "nephos/render/fixed_grid.hpp"
 
 namespace nephos::render {
 
 inline constexpr double geostationary_altitude_m = 35786e3;
+
+/// An ABI sensor on the GOES-R fixed grid (fixed_grid.hpp): its projection, sector, nominal
+/// sub-satellite longitude and platform ("G16", "G18").
+struct FixedGridView {
+  FixedGridProjection projection;
+  FixedGridSector sector;
+  double nominal_subpoint_lon_deg = -75.2;
+  std::string platform = "G16";
+  /// The line of sight through image point (x, y) [pixels, (0, 0) the north-west corner] from
+  /// `position`: at the ellipsoid point the fixed grid assigns to it, taken at the same
+  /// geodetic latitude and longitude on the renderer's sphere (so that pixels co-register with
+  /// ABI's); off the ellipsoid, the scan angles' own line of sight.
+  earth::Vec3 ray(const earth::Vec3& position, double x, double y) const;
+};
 
 struct Sensor {
   earth::Vec3 position;            ///< ECEF [m]
@@ -17,11 +33,13 @@ struct Sensor {
   double fov_deg = 20;             ///< full horizontal field of view
   int width = 1000, height = 1000;
   std::string description;
+  std::shared_ptr<const FixedGridView> fixed_grid;  ///< set: rays on the ABI fixed grid, not a pinhole
 
   /// Unit direction of the ray through image point (x, y) in pixels (0,0 = top-left corner).
   earth::Vec3 ray(double x, double y) const { return ray(x, y, std::tan(0.5 * fov_deg * earth::deg)); }
   /// ray(x, y) with tan(fov_deg / 2) given (computed once for many rays).
   earth::Vec3 ray(double x, double y, double tan_half_fov) const {
+    if (fixed_grid) return fixed_grid->ray(position, x, y);
     const double sx = (2.0 * x / width - 1.0) * tan_half_fov;
     const double sy = (1.0 - 2.0 * y / height) * tan_half_fov * height / width;
     return glm::normalize(forward + sx * right + sy * up);
@@ -43,12 +61,22 @@ struct Sensor {
   /// default the local vertical at `from`.
   static Sensor look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
                         int height, const earth::Vec3* up_hint = nullptr);
+  /// An ABI on the fixed grid: the sector's pixels; fov_deg such that a pixel's angular width is
+  /// the grid's spacing (for the ray cones).
+  static Sensor abi(const FixedGridView& view);
 };
 
-/// "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG", or a TOML file with a [camera] table
+/// The fixed-grid view of "abi:east" (GOES-16: projection origin -75.0, nominal sub-satellite
+/// point -75.2), "abi:west" (GOES-18: -137.0, -137.2) or "abi:LON" (both LON), sector `scene` at
+/// resolution_km coarsened by `step`. ValueError naming "sensor", "scene" or "abi_step".
+FixedGridView abi_view(const std::string& spec, const std::string& scene, double resolution_km, int step);
+
+/// "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG", "abi:east|west|LON" (the fixed grid of `scene` at
+/// resolution_km, coarsened by abi_step: width and height are the sector's), or a TOML file with a [camera] table
 /// (position_lat_deg, position_lon_deg, position_alt_m, look_at_lat_deg, look_at_lon_deg,
 /// look_at_alt_m, fov_deg, optional up = [x, y, z] ECEF). Throws ValueError/ConfigError.
-Sensor parse_sensor(const std::string& spec, int width, int height);
+Sensor parse_sensor(const std::string& spec, int width, int height, const std::string& scene = "full",
+                    double resolution_km = 2, int abi_step = 1);
 Sensor sensor_from(const ParamDict& camera, int width, int height);
 
 }  // namespace nephos::render

@@ -1,0 +1,238 @@
+#include "nephos/render/abi_l1b.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include <fmt/format.h>
+
+#include "nephos/core/error.hpp"
+#include "nephos/io/netcdf_writer.hpp"
+
+namespace nephos::render {
+
+namespace {
+constexpr double c1 = 1.191042e-5;  // 2 h c^2 [mW m^-2 sr^-1 cm^4] (CODATA)
+constexpr double c2 = 1.4387752;    // h c / k [K cm]
+constexpr std::int16_t rad_fill = -1;
+constexpr double counts = 32766;  // Rad's packed range 0..32766
+
+// Mode-6 scan time of a sector [s]: full disc 10 min, CONUS 5 min, mesoscale 1 min.
+double scan_seconds(char abbreviation) { return abbreviation == 'F' ? 600 : abbreviation == 'C' ? 300 : 60; }
+
+// "sYYYYJJJHHMMSSt" of ABI file names: year, day of year, time, tenths of a second.
+std::string abi_time(const UtcTime& t) {
+  const std::string iso = t.iso();  // YYYY-MM-DDTHH:MM:SSZ
+  const int year = std::stoi(iso.substr(0, 4));
+  const auto day = (t.unix_s - UtcTime::from_civil(year, 1, 1).unix_s) / 86400 + 1;
+  return fmt::format("{:04d}{:03d}{}{}{}0", year, day, iso.substr(11, 2), iso.substr(14, 2), iso.substr(17, 2));
+}
+
+// ISO time as ABI's global attributes write it, with tenths: 2011-01-15T12:00:00.0Z.
+std::string abi_iso(const UtcTime& t) {
+  std::string iso = t.iso();
+  return iso.substr(0, 19) + ".0Z";
+}
+
+// Scalar variables of a file, defined first and written after the definitions end.
+struct Scalars {
+  std::vector<std::pair<int, double>> f32, f64;
+  void add(io::NetcdfWriter& nc, const std::string& name, double value, const std::string& units,
+           const std::string& long_name, bool dbl = false) {
+    const int v = nc.add_variable(name, dbl ? io::NcType::f64 : io::NcType::f32, {});
+    if (!units.empty()) nc.put_attribute(v, "units", units);
+    nc.put_attribute(v, "long_name", long_name);
+    (dbl ? f64 : f32).emplace_back(v, value);
+  }
+  void write(io::NetcdfWriter& nc) const {
+    for (const auto& [v, x] : f32) {
+      const float f = static_cast<float>(x);
+      nc.write(v, &f);
+    }
+    for (const auto& [v, x] : f64) nc.write(v, &x);
+  }
+};
+
+// The fixed grid's coordinate: int16 pixel indices scaled to scan angles [rad].
+int coordinate(io::NetcdfWriter& nc, const std::string& name, double first, double step, const std::string& axis) {
+  const int v = nc.add_variable(name, io::NcType::i16, {name});
+  nc.put_attribute(v, "scale_factor", step);
+  nc.put_attribute(v, "add_offset", first);
+  nc.put_attribute(v, "units", "rad");
+  nc.put_attribute(v, "axis", axis);
+  nc.put_attribute(v, "standard_name", name == "x" ? "projection_x_coordinate" : "projection_y_coordinate");
+  nc.put_attribute(v, "long_name",
+                   name == "x" ? "GOES fixed grid projection x-coordinate" : "GOES fixed grid projection y-coordinate");
+  return v;
+}
+
+void write_band(const std::filesystem::path& path, const RenderImage& img, std::size_t bi, const FixedGridView& view,
+                const UtcTime& start, double sun_distance_au, const std::vector<std::uint8_t>& on_earth) {
+  const optics::Band& band = optics::band(img.bands[bi]);
+  const FixedGridSector& sec = view.sector;
+  const std::size_t n = static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny);
+  io::NetcdfWriter nc(path);
+  nc.add_dimension("y", static_cast<std::size_t>(sec.ny)), nc.add_dimension("x", static_cast<std::size_t>(sec.nx));
+  nc.add_dimension("number_of_time_bounds", 2);
+  // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
+  // 1.5; thermal bands [mW m^-2 sr^-1 (cm^-1)^-1] up to 350 K.
+  const PlanckCoefficients pc = planck_coefficients(band);
+  const double rad_max = band.thermal ? pc.radiance(350) : 1.5 * band.solar_irradiance / M_PI;
+  const double scale = rad_max / counts;
+  const int rad = nc.add_variable("Rad", io::NcType::i16, {"y", "x"});
+  nc.put_attribute_i16(rad, "_FillValue", {rad_fill});
+  nc.put_attribute(rad, "scale_factor", scale);
+  nc.put_attribute(rad, "add_offset", 0.0);
+  nc.put_attribute(rad, "units", band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1");
+  nc.put_attribute(rad, "long_name", "ABI L1b Radiances (simulated by nephos)");
+  nc.put_attribute(rad, "standard_name", "toa_outgoing_radiance_per_unit_wavenumber");
+  nc.put_attribute_i16(rad, "valid_range", {0, static_cast<std::int16_t>(counts)});
+  nc.put_attribute(rad, "grid_mapping", "goes_imager_projection");
+  nc.put_attribute(rad, "coordinates", "band_id band_wavelength t y x");
+  nc.put_attribute(rad, "ancillary_variables", "DQF");
+  const int dqf = nc.add_variable("DQF", io::NcType::i8, {"y", "x"});
+  nc.put_attribute_i8(dqf, "_FillValue", {-1});
+  nc.put_attribute(dqf, "long_name", "ABI L1b Radiances data quality flags");
+  nc.put_attribute_i8(dqf, "flag_values", {0});
+  nc.put_attribute(dqf, "flag_meanings", "good_pixel_qf");
+  const int xv = coordinate(nc, "x", sec.x0_rad, sec.dx_rad, "X"),
+            yv = coordinate(nc, "y", sec.y0_rad, sec.dy_rad, "Y");
+  const int proj = nc.add_variable("goes_imager_projection", io::NcType::i32, {});
+  nc.put_attribute(proj, "long_name", "GOES-R ABI fixed grid projection");
+  nc.put_attribute(proj, "grid_mapping_name", "geostationary");
+  nc.put_attribute(proj, "perspective_point_height", FixedGridProjection::perspective_height_m);
+  nc.put_attribute(proj, "semi_major_axis", FixedGridProjection::semi_major_m);
+  nc.put_attribute(proj, "semi_minor_axis", FixedGridProjection::semi_minor_m);
+  nc.put_attribute(proj, "inverse_flattening", 298.2572221);
+  nc.put_attribute(proj, "latitude_of_projection_origin", 0.0);
+  nc.put_attribute(proj, "longitude_of_projection_origin", view.projection.lon0_deg);
+  nc.put_attribute(proj, "sweep_angle_axis", "x");
+  const int band_id = nc.add_variable("band_id", io::NcType::i8, {});
+  nc.put_attribute(band_id, "long_name", "ABI band number");
+  Scalars sc;
+  sc.add(nc, "band_wavelength", band.centre_um, "um", "ABI band central wavelength");
+  if (band.thermal) {
+    sc.add(nc, "planck_fk1", pc.fk1, "W m-1", "wavenumber-dependent coefficient (2 h c^2 nu^3) of the band");
+    sc.add(nc, "planck_fk2", pc.fk2, "K", "wavenumber-dependent coefficient (h c nu / k) of the band");
+    sc.add(nc, "planck_bc1", pc.bc1, "K", "spectral bandpass correction offset for brightness temperature");
+    sc.add(nc, "planck_bc2", pc.bc2, "1", "spectral bandpass correction scale factor for brightness temperature");
+  }
+  sc.add(nc, "esun", band.solar_irradiance, "W m-2 um-1", "bandpass-weighted solar irradiance at 1 AU");
+  sc.add(nc, "kappa0", M_PI / band.solar_irradiance, "(W m-2 um-1 sr-1)-1",
+         "inverse of the solar irradiance times pi at 1 AU");
+  sc.add(nc, "earth_sun_distance_anomaly_in_AU", sun_distance_au, "ua", "earth sun distance anomaly in AU");
+  sc.add(nc, "nominal_satellite_subpoint_lat", 0.0, "degrees_north", "nominal satellite subpoint latitude");
+  sc.add(nc, "nominal_satellite_subpoint_lon", view.nominal_subpoint_lon_deg, "degrees_east",
+         "nominal satellite subpoint longitude");
+  sc.add(nc, "nominal_satellite_height", FixedGridProjection::perspective_height_m / 1e3, "km",
+         "nominal satellite height above GRS 80 ellipsoid");
+  const int yaw = nc.add_variable("yaw_flip_flag", io::NcType::i8, {});
+  nc.put_attribute(yaw, "long_name", "Flag indicating the spacecraft is operating in yaw flip configuration");
+  // Time: seconds since 2000-01-01 12:00:00 (J2000), the scan's middle and its bounds.
+  const double t0 = start.days_since_j2000() * 86400, scan = scan_seconds(sec.abbreviation);
+  sc.add(nc, "t", t0 + 0.5 * scan, "seconds since 2000-01-01 12:00:00",
+         "J2000 epoch mid-point between the start and end image scan in seconds", true);
+  const int tb = nc.add_variable("time_bounds", io::NcType::f64, {"number_of_time_bounds"});
+  nc.put_attribute(tb, "long_name", "Scan start and end times in seconds since epoch (2000-01-01 12:00:00)");
+  // Global attributes.
+  const UtcTime end = start.plus_seconds(scan);
+  const int g = io::NetcdfWriter::global;
+  nc.put_attribute(g, "title", "ABI L1b Radiances");
+  nc.put_attribute(g, "summary",
+                   "Simulated by nephos from a weather model's clouds, atmosphere and ground: not an observation");
+  nc.put_attribute(g, "Conventions", "CF-1.7");
+  nc.put_attribute(g, "dataset_name", path.filename().string());
+  nc.put_attribute(g, "platform_ID", view.platform);
+  nc.put_attribute(g, "instrument_type", "GOES R Series Advanced Baseline Imager (simulated)");
+  nc.put_attribute(g, "instrument_ID", "nephos");
+  nc.put_attribute(g, "production_site", "nephos");
+  nc.put_attribute(g, "orbital_slot", view.platform == "G16" ? "GOES-East" : "GOES-West");
+  nc.put_attribute(g, "scene_id",
+                   sec.abbreviation == 'F'   ? "Full Disk"
+                   : sec.abbreviation == 'C' ? "CONUS"
+                                             : "Mesoscale");
+  nc.put_attribute(g, "timeline_id", "ABI Mode 6");
+  nc.put_attribute(g, "spatial_resolution", fmt::format("{:g}km at nadir", sec.resolution_km * sec.step));
+  nc.put_attribute(g, "time_coverage_start", abi_iso(start));
+  nc.put_attribute(g, "time_coverage_end", abi_iso(end));
+  nc.end_definitions();
+  // Data.
+  std::vector<std::int16_t> packed(n, rad_fill);
+  std::vector<std::int8_t> quality(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!on_earth[i]) continue;
+    const double l = band.thermal ? pc.radiance(img.brightness_temperature[bi][i]) : img.radiance[bi][i];
+    if (!std::isfinite(l)) continue;
+    packed[i] = static_cast<std::int16_t>(std::clamp(std::round(l / scale), 0.0, counts));
+    quality[i] = 0;
+  }
+  nc.write(rad, packed.data());
+  nc.write(dqf, quality.data());
+  std::vector<std::int16_t> index(static_cast<std::size_t>(std::max(sec.nx, sec.ny)));
+  for (std::size_t i = 0; i < index.size(); ++i) index[i] = static_cast<std::int16_t>(i);
+  nc.write(xv, index.data());
+  nc.write(yv, index.data());
+  const std::int32_t zero = 0;
+  nc.write(proj, &zero);
+  const std::int8_t id = static_cast<std::int8_t>(band.abi_band), no = 0;
+  nc.write(band_id, &id);
+  nc.write(yaw, &no);
+  const double bounds[2] = {t0, t0 + scan};
+  nc.write(tb, bounds);
+  sc.write(nc);
+  nc.close();
+}
+}  // namespace
+
+double PlanckCoefficients::radiance(double bt) const { return fk1 / (std::exp(fk2 / (bc1 + bc2 * bt)) - 1); }
+
+double PlanckCoefficients::brightness_temperature(double l) const { return (fk2 / std::log(fk1 / l + 1) - bc1) / bc2; }
+
+PlanckCoefficients planck_coefficients(const optics::Band& b) {
+  PlanckCoefficients p;
+  const double nu = 1e4 / b.centre_um;  // [cm^-1]
+  p.fk1 = c1 * nu * nu * nu, p.fk2 = c2 * nu;
+  // The centre's brightness temperature of the band-mean radiance, against the band's own.
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int n = 0;
+  for (double t = 180; t <= 340; t += 2, ++n) {
+    const double l_um = optics::band_planck(b, t);                      // [W m^-2 sr^-1 um^-1]
+    const double l_cm = l_um * b.centre_um * b.centre_um * 1e-4 * 1e3;  // per cm^-1, mW
+    const double tc = p.fk2 / std::log(p.fk1 / l_cm + 1);
+    sx += t, sy += tc, sxx += t * t, sxy += t * tc;
+  }
+  p.bc2 = (n * sxy - sx * sy) / (n * sxx - sx * sx), p.bc1 = (sy - p.bc2 * sx) / n;
+  return p;
+}
+
+std::string abi_l1b_file_name(const FixedGridView& view, int abi_band, const UtcTime& start) {
+  const UtcTime end = start.plus_seconds(scan_seconds(view.sector.abbreviation));
+  return fmt::format("OR_ABI-L1b-Rad{}-M6C{:02d}_{}_s{}_e{}_c{}.nc", view.sector.abbreviation, abi_band, view.platform,
+                     abi_time(start), abi_time(end), abi_time(end));
+}
+
+std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const RenderImage& image,
+                                                 const FixedGridView& view, const UtcTime& start,
+                                                 double sun_distance_au) {
+  const FixedGridSector& sec = view.sector;
+  if (image.width != sec.nx || image.height != sec.ny)
+    throw ValueError(fmt::format("a {}x{} image is not the {}x{} sector", image.width, image.height, sec.nx, sec.ny),
+                     {.key = "size"});
+  if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
+  // Which pixels the fixed grid puts on the Earth.
+  std::vector<std::uint8_t> on_earth(static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny));
+  for (int j = 0; j < sec.ny; ++j)
+    for (int i = 0; i < sec.nx; ++i) {
+      double lat = 0, lon = 0;
+      on_earth[static_cast<std::size_t>(j) * static_cast<std::size_t>(sec.nx) + static_cast<std::size_t>(i)] =
+          view.projection.to_geodetic(sec.x(i), sec.y(j), lat, lon);
+    }
+  std::vector<std::filesystem::path> paths;
+  for (std::size_t b = 0; b < image.bands.size(); ++b) {
+    paths.push_back(dir / abi_l1b_file_name(view, optics::band(image.bands[b]).abi_band, start));
+    write_band(paths.back(), image, b, view, start, sun_distance_au, on_earth);
+  }
+  return paths;
+}
+
+}  // namespace nephos::render

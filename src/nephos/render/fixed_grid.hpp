@@ -1,0 +1,52 @@
+#pragma once
+// The GOES-R ABI fixed grid (GOES-R Product User's Guide, Vol. 3 "Level 1b products", section
+// 5.1.2.8): a geostationary sensor at the perspective point 35 786 023 m above the GRS80 equator
+// at the projection's longitude, sweeping in x (east-west scan angle, the outer axis) and y
+// (north-south elevation angle), both in radians. Full-disc, CONUS/PACUS and mesoscale sectors
+// at ABI's 0.5, 1 and 2 km sub-satellite resolutions (14, 28 and 56 microradians).
+#include <string>
+
+#include "nephos/earth/geometry.hpp"
+
+namespace nephos::render {
+
+/// The fixed grid's projection: scan angles <-> geodetic latitude and longitude on GRS80.
+struct FixedGridProjection {
+  static constexpr double semi_major_m = 6378137.0;      ///< GRS80 equatorial radius
+  static constexpr double semi_minor_m = 6356752.31414;  ///< GRS80 polar radius (PUG's r_pol)
+  static constexpr double perspective_height_m = 35786023.0;
+  double lon0_deg = -75.0;  ///< longitude_of_projection_origin
+
+  double satellite_distance_m() const { return semi_major_m + perspective_height_m; }  ///< PUG's H
+  /// The perspective point, ECEF [m].
+  earth::Vec3 satellite_ecef() const;
+  /// Geodetic latitude and longitude [deg] seen at scan angles (x, y) [rad]; false off the Earth.
+  bool to_geodetic(double x_rad, double y_rad, double& lat_deg, double& lon_deg) const;
+  /// Scan angles [rad] of a point of the ellipsoid; false where the sensor cannot see it.
+  bool to_scan(double lat_deg, double lon_deg, double& x_rad, double& y_rad) const;
+  /// Unit line of sight (ECEF) at scan angles (x, y).
+  earth::Vec3 line_of_sight(double x_rad, double y_rad) const;
+};
+
+/// A sector of the fixed grid: its pixel centres x0 + i dx, y0 + j dy (rows from the north).
+struct FixedGridSector {
+  std::string scene;         ///< "full", "conus" or "meso"
+  char abbreviation = 'F';   ///< of the L1b file name: RadF, RadC, RadM
+  double resolution_km = 2;  ///< ABI's nominal sub-satellite resolution of the grid (before any step)
+  int step = 1;              ///< the native grid coarsened by this factor
+  double x0_rad = 0, y0_rad = 0, dx_rad = 56e-6, dy_rad = -56e-6;
+  int nx = 0, ny = 0;
+  double x(int i) const { return x0_rad + i * dx_rad; }
+  double y(int j) const { return y0_rad + j * dy_rad; }
+};
+
+/// The sector `scene` ("full", "conus" for GOES-East's CONUS and PACUS west of -105 deg, or
+/// "meso:LAT,LON", 1000 km square on the full disc's grid) at resolution_km (0.5, 1 or 2),
+/// coarsened by `step` (>= 1). ValueError naming "scene" or "abi_step".
+FixedGridSector fixed_grid_sector(const FixedGridProjection& p, const std::string& scene, double resolution_km,
+                                  int step);
+
+/// ABI's native resolution [km] of band 1-16: 0.5 (band 2), 1 (bands 1, 3, 5) or 2.
+double abi_native_resolution_km(int abi_band);
+
+}  // namespace nephos::render
