@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -34,6 +35,7 @@
 #include "nephos/realtime/gl/flight_job.hpp"
 #include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
+#include "nephos/render/abi_l1b.hpp"
 #include "nephos/render/job.hpp"
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
@@ -117,9 +119,9 @@ class Scene {
     scene_->advance(hours, "hours");
   }
 
-  py::dict render(const std::string& sensor, std::pair<int, int> size, const std::vector<std::string>& bands, int steps,
-                  const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere, bool shadows,
-                  bool filter, const std::string& scene, int abi_step) const {
+  py::object render(const std::string& sensor, std::pair<int, int> size, const std::vector<std::string>& bands,
+                    int steps, const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere,
+                    bool shadows, bool filter, const std::string& scene, int abi_step, bool as_dict) const {
     render::ViewRequest view;
     view.sensor = sensor;
     std::tie(view.width, view.height) = size;
@@ -142,6 +144,7 @@ class Scene {
       py::gil_scoped_release release;
       r = scene_->render(view, copy);
     }
+    if (r.sensor.fixed_grid && !as_dict) return image_dataset(r, view);
     return image_dict(r);
   }
 
@@ -190,8 +193,100 @@ class Scene {
     out["time"] = r.time.iso();
     return out;
   }
+  // An ABI view as an xarray.Dataset on the fixed grid: x, y scan angles [rad], every field with
+  // its units and the CF grid mapping goes_imager_projection; the view's request in the attributes
+  // (what write_abi_l1b needs).
+  static py::object image_dataset(const render::RenderedView& r, const render::ViewRequest& view) {
+    const render::RenderImage& img = r.image;
+    const render::FixedGridView& fg = *r.sensor.fixed_grid;
+    const render::FixedGridSector& sec = fg.sector;
+    const std::vector<py::ssize_t> shape{img.height, img.width};
+    std::vector<double> xs(static_cast<std::size_t>(sec.nx)), ys(static_cast<std::size_t>(sec.ny));
+    for (int i = 0; i < sec.nx; ++i) xs[static_cast<std::size_t>(i)] = sec.x(i);
+    for (int j = 0; j < sec.ny; ++j) ys[static_cast<std::size_t>(j)] = sec.y(j);
+    const py::tuple yx = py::make_tuple("y", "x");
+    py::dict vars;
+    auto field = [&](const std::string& name, py::object array, const std::string& units,
+                     const std::string& long_name) {
+      py::dict a;
+      a["units"] = units, a["long_name"] = long_name, a["grid_mapping"] = "goes_imager_projection";
+      vars[py::str(name)] = py::make_tuple(yx, array, a);
+    };
+    for (std::size_t b = 0; b < img.bands.size(); ++b) {
+      const std::string what = optics::band(img.bands[b]).description;
+      field("radiance_" + img.bands[b], to_array(img.radiance[b], shape), "W m-2 sr-1 um-1", what + " radiance");
+      if (!img.brightness_temperature[b].empty())
+        field("brightness_temperature_" + img.bands[b], to_array(img.brightness_temperature[b], shape), "K",
+              what + " brightness temperature");
+    }
+    field("cloud_top_altitude", to_array(img.cloud_top_altitude_m, shape), "m", "nearest cloud surface above MSL");
+    field("cloud_optical_depth", to_array(img.cloud_optical_depth, shape), "1", "visible cloud optical depth");
+    field("cloud_fraction", to_array(img.cloud_fraction, shape), "1", "cloud area fraction of the pixel");
+    field("cloud_type", to_array(img.cloud_type, shape), "1",
+          "-1 none, 0 low stratus, 1 low cumulus, 2 altostratus, 3 cirrus");
+    field("latitude", to_array(img.latitude_deg, shape), "degrees_north",
+          "latitude of the nearest cloud or Earth point");
+    field("longitude", to_array(img.longitude_deg, shape), "degrees_east",
+          "longitude of the nearest cloud or Earth point");
+    py::dict proj;
+    proj["grid_mapping_name"] = "geostationary",
+    proj["perspective_point_height"] = render::FixedGridProjection::perspective_height_m;
+    proj["semi_major_axis"] = render::FixedGridProjection::semi_major_m;
+    proj["semi_minor_axis"] = render::FixedGridProjection::semi_minor_m;
+    proj["latitude_of_projection_origin"] = 0.0, proj["longitude_of_projection_origin"] = fg.projection.lon0_deg;
+    proj["sweep_angle_axis"] = "x";
+    vars["goes_imager_projection"] = py::make_tuple(py::tuple(), 0, proj);
+    py::dict coords, xa, ya;
+    xa["units"] = "rad", xa["standard_name"] = "projection_x_coordinate", xa["axis"] = "X";
+    ya["units"] = "rad", ya["standard_name"] = "projection_y_coordinate", ya["axis"] = "Y";
+    coords["x"] = py::make_tuple(py::make_tuple("x"), to_array(xs, {sec.nx}), xa);
+    coords["y"] = py::make_tuple(py::make_tuple("y"), to_array(ys, {sec.ny}), ya);
+    py::dict attrs;
+    attrs["sensor"] = view.sensor, attrs["scene"] = view.scene, attrs["abi_step"] = view.abi_step;
+    attrs["resolution_km"] = view.resolution_km(), attrs["platform"] = fg.platform;
+    attrs["time"] = r.time.iso(), attrs["sun_distance_au"] = r.sun.distance_au;
+    attrs["description"] = r.sensor.description;
+    return py::module_::import("xarray").attr("Dataset")(vars, coords, attrs);
+  }
   std::unique_ptr<render::RenderScene> scene_;
 };
+
+// nephos.write_abi_l1b: an ABI view's Dataset (Scene.render) as L1b files in `dir`.
+std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::string& dir) {
+  const py::dict attrs = dataset.attr("attrs");
+  for (const char* k : {"sensor", "scene", "abi_step", "resolution_km", "time", "sun_distance_au"})
+    if (!attrs.contains(k))
+      throw ValueError(std::string("not an ABI view of Scene.render: no attribute '") + k + "'", {.key = "dataset"});
+  const render::FixedGridView view =
+      render::abi_view(attrs["sensor"].cast<std::string>(), attrs["scene"].cast<std::string>(),
+                       attrs["resolution_km"].cast<double>(), attrs["abi_step"].cast<int>());
+  render::RenderImage img;
+  img.width = view.sector.nx, img.height = view.sector.ny;
+  const std::string prefix = "radiance_";
+  for (const auto& name : dataset.attr("data_vars").attr("keys")()) {
+    const std::string n = name.cast<std::string>();
+    if (n.rfind(prefix, 0) != 0) continue;
+    const std::string band = n.substr(prefix.size());
+    auto values = [&](const std::string& var) {
+      const auto a =
+          dataset[py::str(var)].attr("values").cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      if (a.ndim() != 2 || a.shape(0) != img.height || a.shape(1) != img.width)
+        throw ValueError(fmt::format("{} is not {}x{}", var, img.height, img.width), {.key = "dataset"});
+      return std::vector<float>(a.data(), a.data() + a.size());
+    };
+    img.bands.push_back(band);
+    img.radiance.push_back(values(n));
+    img.brightness_temperature.push_back(optics::band(band).thermal ? values("brightness_temperature_" + band)
+                                                                    : std::vector<float>{});
+  }
+  if (img.bands.empty()) throw ValueError("no radiance_<band> variable", {.key = "dataset"});
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> out;
+  for (const auto& p : render::write_abi_l1b(dir, img, view, UtcTime::parse(attrs["time"].cast<std::string>()),
+                                             attrs["sun_distance_au"].cast<double>()))
+    out.push_back(p.string());
+  return out;
+}
 
 // ---- Lattice-Boltzmann clouds: fields as (nz, ny, nx) float32 arrays, [z][y][x] as in lbm.nc.
 
@@ -494,7 +589,7 @@ void def_weather_and_scene(py::module_& m) {
            py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
            py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
            py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true, py::arg("scene") = "full",
-           py::arg("abi_step") = 1,
+           py::arg("abi_step") = 1, py::arg("as_dict") = false,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
            "['all']; atmosphere, shadows: False leaves them out; filter: False renders point samples, detail finer "
            "than a pixel unfiltered): a dict of (height, width) arrays radiance_<band> "
@@ -503,8 +598,9 @@ void def_weather_and_scene(py::module_& m) {
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
            "'abi:west', 'abi:LON' (the GOES-R fixed grid: sector `scene` 'full', 'conus' or 'meso:LAT,LON', coarsened "
            "by "
-           "abi_step; size is the sector's) or a camera TOML file; time: ISO 8601 UTC (default: the weather's valid "
-           "time).");
+           "abi_step; size is the sector's; returned as an xarray.Dataset with x/y scan angles and the CF grid "
+           "mapping goes_imager_projection, unless as_dict) or a camera TOML file; time: ISO 8601 UTC (default: the "
+           "weather's valid time).");
 }
 
 // nephos.Flight.
@@ -619,6 +715,9 @@ PYBIND11_MODULE(nephos, m) {
   m.def(
       "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
       "Log lines (and warnings) on stderr, as the command line prints them.");
+  m.def("write_abi_l1b", &write_abi_l1b, py::arg("dataset"), py::arg("dir"),
+        "Writes an ABI view of Scene.render (an xarray.Dataset) as ABI L1b files, one per band, into `dir` (as "
+        "`nephos render --format abi-l1b`, on the view's grid); returns their paths.");
   m.def(
       "sun",
       [](const std::string& time) {

@@ -226,6 +226,38 @@ class RadiationAgainstGfs(unittest.TestCase):
         self.assertLess(abs(s["albedo"]["bias"]), 0.05)
 
 
+class AbiL1b(unittest.TestCase):
+    def test_an_abi_view_is_a_dataset_whose_files_equal_the_clis(self):
+        # Scene.render of an ABI sensor: an xarray.Dataset on the fixed grid (x, y scan angles of
+        # the PUG's full disc, 2 km coarsened 32-fold: the first pixel centre at -0.151872 + 16 *
+        # 56 urad), with the CF grid mapping; nephos.write_abi_l1b writes from it the files
+        # `nephos render --format abi-l1b` writes, Rad for Rad. Faults caught: a Dataset whose
+        # rows run south first, files written from another grid or time.
+        import netCDF4
+        import xarray as xr
+        ds = nephos.Scene(nephos.Weather(str(SAMPLE)), texture=32).render(sensor="abi:east", abi_step=32,
+                                                                          bands=["lwir"])
+        self.assertIsInstance(ds, xr.Dataset)
+        self.assertEqual(ds["brightness_temperature_lwir"].dims, ("y", "x"))
+        self.assertAlmostEqual(float(ds.x[0]), -0.151872 + 16 * 56e-6, places=12)
+        self.assertAlmostEqual(float(ds.y[0]), 0.151872 - 16 * 56e-6, places=12)
+        self.assertEqual(ds["goes_imager_projection"].attrs["grid_mapping_name"], "geostationary")
+        self.assertEqual(ds["brightness_temperature_lwir"].attrs["grid_mapping"], "goes_imager_projection")
+        with tempfile.TemporaryDirectory() as d:
+            py_files = nephos.write_abi_l1b(ds, str(Path(d) / "py"))
+            r = subprocess.run([NEPHOS, "-q", "render", "--sensor", "abi:east", "--abi-step", "32", "--texture", "32",
+                                "--bands", "lwir", "--format", "abi-l1b", "--out", str(Path(d) / "cli")],
+                               capture_output=True, text=True, timeout=300)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            cli_files = sorted((Path(d) / "cli").glob("*.nc"))
+            self.assertEqual([Path(f).name for f in py_files], [f.name for f in cli_files])
+            a, b = netCDF4.Dataset(py_files[0]), netCDF4.Dataset(cli_files[0])
+            self.assertTrue((a["Rad"][:] == b["Rad"][:]).all())
+            self.assertTrue(np.allclose(a["x"][:], ds.x.values, rtol=0, atol=1e-9))
+        self.assertIsInstance(nephos.Scene(nephos.Weather(str(SAMPLE)), texture=8).render(
+            sensor="abi:east", abi_step=64, bands=["lwir"], as_dict=True), dict)
+
+
 class Lbm(unittest.TestCase):
     def test_the_stages_equal_nephos_lbm_bit_for_bit(self):
         # The pipeline of `nephos lbm` composed in Python: water model, percolation, lighting and
