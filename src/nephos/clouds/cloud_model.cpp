@@ -291,11 +291,12 @@ void CloudShell::build_coverage(const std::vector<double>& f) {
   const double sd = sigma_max_;
   coverage_.assign(coverage_intervals + 1, 0.0);
   if (!(sd > 0)) {  // no fractal detail: a footprint is all on CF's side
-    u_min_ = -1e-9, u_max_ = 1e-9;
+    u_min_ = -1e-9, u_max_ = 1e-9, coverage_scale_ = coverage_intervals / (u_max_ - u_min_);
     for (int k = 0; k <= coverage_intervals; ++k) coverage_[static_cast<std::size_t>(k)] = k >= coverage_intervals / 2;
     return;
   }
   u_min_ = -(f.back() - mean) / sd, u_max_ = -(f.front() - mean) / sd;
+  coverage_scale_ = coverage_intervals / (u_max_ - u_min_);
   const double nf = static_cast<double>(f.size() - 1);
   for (std::size_t k = 0; k < z_nodes_.size(); ++k)
     z_nodes_[k] = (f[static_cast<std::size_t>((static_cast<double>(k) + 0.5) / z_node_count * nf)] - mean) / sd;

@@ -168,7 +168,7 @@ class CloudShell {
   /// standardised (its distribution sampled as for the calibration, tabulated): the fractal sum's
   /// own bounded, skewed shape, not a normal one. 0 at u_min() and below, 1 at u_max() and above.
   double coverage(double u) const {
-    const double x = (u - u_min_) / (u_max_ - u_min_) * coverage_intervals;
+    const double x = (u - u_min_) * coverage_scale_;
     if (!(x > 0)) return 0;
     if (x >= coverage_intervals) return 1;
     const auto i = static_cast<std::size_t>(x);
@@ -176,7 +176,7 @@ class CloudShell {
   }
   /// log(1 - coverage(u)), tabulated likewise (-27.6, log 1e-12, where coverage is 1).
   double log_clear(double u) const {
-    const double x = (u - u_min_) / (u_max_ - u_min_) * coverage_intervals;
+    const double x = (u - u_min_) * coverage_scale_;
     if (!(x > 0)) return 0;
     if (x >= coverage_intervals) return log_clear_.back();
     const auto i = static_cast<std::size_t>(x);
@@ -321,6 +321,7 @@ class CloudShell {
   static constexpr int coverage_intervals = 1024;
   std::vector<double> coverage_;  ///< coverage() at u_min + k (u_max - u_min) / 1024
   double u_min_ = -4, u_max_ = 4;
+  double coverage_scale_ = coverage_intervals / 8.0;  ///< table nodes per unit of u
   /// The fractal sum F at 32768 counter-hashed points (each texture at its own independent
   /// position: the terms use unrelated length scales), sorted.
   std::vector<double> fractal_sample() const;
