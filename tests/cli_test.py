@@ -417,6 +417,12 @@ class AbiL1b(unittest.TestCase):
         r = run("render", "--sensor", "geo:-75.2", "--format", "abi-l1b", "--out", Path(self.tmp.name) / "bad")
         self.assertEqual(r.returncode, 2, r.stderr)
         self.assertIn("abi-l1b needs an ABI sensor", r.stderr)
+        r = run("render", "--sensor", "abi:east", "--bands", "vis", "--out", Path(self.tmp.name) / "bad")
+        self.assertEqual(r.returncode, 2, r.stderr)  # band 2's 0.5 km full disc: 21696 pixels a side
+        self.assertIn("--abi-step", r.stderr)
+        r = run("render", "--scene", "conus", "--out", Path(self.tmp.name) / "bad")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("for abi sensors only", r.stderr)
         self.assertFalse((Path(self.tmp.name) / "bad").exists())
 
 

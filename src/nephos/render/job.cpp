@@ -67,7 +67,12 @@ std::pair<Sensor, RenderParams> checked_view(const ViewRequest& view, std::uint6
   RenderParams rp = render_params(view, seed);
   Sensor sensor = abi ? parse_sensor(view.sensor, 0, 0, view.scene, view.resolution_km(), view.abi_step)
                       : parse_sensor(view.sensor, view.width, view.height);
-  if (abi) require_image_size(sensor.width, sensor.height, "abi_step");  // a 0.5 km full disc needs a step
+  if (!abi && view.scene != "full") throw ValueError("a sector is for abi sensors only", {.key = "scene"});
+  if (!abi && view.abi_step != 1) throw ValueError("a fixed-grid step is for abi sensors only", {.key = "abi_step"});
+  if (abi && std::max(sensor.width, sensor.height) > max_image_edge_px)
+    throw ValueError(fmt::format("the {} sector at {:g} km is {}x{} pixels, more than {} a side: coarsen it",
+                                 view.scene, view.resolution_km(), sensor.width, sensor.height, max_image_edge_px),
+                     {.key = "abi_step"});
   const int w = sensor.width, h = sensor.height;
   require_memory(render_memory_bytes(w, h, rp) + extra_bytes_per_pixel * w * static_cast<double>(h), "size",
                  fmt::format("a {}x{} image with {} rays per pixel", w, h, view.samples));
