@@ -1,6 +1,7 @@
 #include "nephos/render/earth_view.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -150,11 +151,13 @@ void EarthView::air(double lat, double lon, double z, double mu_view, double mu_
   const Stencil s = stencil(lat, lon);
   const double m_view = atmosphere::air_mass(std::max(mu_view, 0.02));
   const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
-  std::array<double, optics::max_band_count> tv{}, pa{}, ts{}, tr{};
-  double wsum = 0;
-  for (std::size_t q = 0; q < 4; ++q) {
-    if (s.w[q] == 0) continue;
-    const Node& node = nodes_[s.node[q]];
+  // Per band, the nodes' optical depths carried to the pixel's air masses (exact for a grey
+  // absorber) and their other quantities, weighted bilinearly; exponentiated once.
+  std::array<double, optics::max_band_count> log_t{}, q{}, log_sun{}, tr{};
+  double wsum = 0, wsun = 0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    if (s.w[k] == 0) continue;
+    const Node& node = nodes_[s.node[k]];
     if (node.optics_z.empty()) continue;
     // The level interval holding z, once for every band.
     const std::size_t n = node.optics_z.size();
@@ -164,26 +167,27 @@ void EarthView::air(double lat, double lon, double z, double mu_view, double mu_
     const double f = std::clamp((z - node.optics_z[hi - 1]) / (node.optics_z[hi] - node.optics_z[hi - 1]), 0.0, 1.0);
     const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
     const float* hi_level = &node.optics[hi * nb * optics_per_band];
-    // The node's column was computed for its own air masses: its transmittances carried to the
-    // pixel's (exact for a grey absorber), its emission with its absorptance (the air's mean
-    // Planck radiance times 1 - t).
-    const double r = m_view / node.view_air_mass;
-    const double r_sun = m_sun > 0 && node.sun_air_mass > 0 ? m_sun / node.sun_air_mass : -1.0;
+    const double w = s.w[k], r = w * m_view / node.view_air_mass;
+    const bool sun = m_sun > 0 && node.sun_air_mass > 0;
+    const double r_sun = sun ? w * m_sun / node.sun_air_mass : 0.0;
     for (std::size_t b = 0; b < nb; ++b) {
       const float* a = lo_level + b * optics_per_band;
       const float* c = hi_level + b * optics_per_band;
-      const double t_pix = std::exp(r * (a[0] + f * (c[0] - a[0])));
-      const double path = (a[1] + f * (c[1] - a[1])) * (1 - t_pix);
-      const double t_sun = r_sun > 0 ? std::exp(r_sun * (a[2] + f * (c[2] - a[2]))) : (m_sun <= 0 ? 0.0 : 1.0);
-      tv[b] += s.w[q] * t_pix, pa[b] += s.w[q] * path, ts[b] += s.w[q] * t_sun;
-      tr[b] += s.w[q] * (a[3] + f * (c[3] - a[3]));
+      log_t[b] += r * (a[0] + f * (c[0] - a[0])), q[b] += w * (a[1] + f * (c[1] - a[1]));
+      log_sun[b] += r_sun * (a[2] + f * (c[2] - a[2])), tr[b] += w * (a[3] + f * (c[3] - a[3]));
     }
-    wsum += s.w[q];
+    wsum += w, wsun += sun ? w : 0.0;
   }
   if (wsum <= 0) return;
   for (std::size_t b = 0; b < nb; ++b) {
-    out.t_view[b] = static_cast<float>(tv[b] / wsum), out.path[b] = static_cast<float>(pa[b] / wsum);
-    out.t_sun[b] = static_cast<float>(ts[b] / wsum), out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
+    // The air's emission: its mean Planck radiance times the pixel's absorptance.
+    const double t_pix = std::exp(log_t[b] / wsum);
+    out.t_view[b] = static_cast<float>(t_pix), out.path[b] = static_cast<float>(q[b] / wsum * (1 - t_pix));
+    out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
+    if (m_sun <= 0)
+      out.t_sun[b] = 0;
+    else if (wsun > 0 && bands_[b]->abi_band <= 7)  // the Sun's path: bands with sunlight (RenderContext::solar)
+      out.t_sun[b] = static_cast<float>(std::exp(log_sun[b] / wsun));
   }
 }
 
