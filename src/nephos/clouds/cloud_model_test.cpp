@@ -75,7 +75,9 @@ TEST(CloudShell, AFootprintWiderThanEveryTileCoversTheMasksCloudFraction) {
   // the share of point samples in cloud, which the calibration makes the mask value m
   // (CalibratedMaskMeansCloudFraction). At every point alike (no fractal detail left): within
   // 0.01, the calibration's and the coverage table's sampling error (32 768 samples: <= 0.003
-  // each) with margin. Fault caught: coverage as the normal distribution of u (0.95 gave 0.993).
+  // each) with margin. Fault caught: the exceedance read the wrong way round, P(Z < u) for
+  // P(Z > -u) (mask 0.1 fails). A normal distribution in place of the table passes here: these
+  // small textures' sum is near normal.
   CloudTypeParams p = CloudModelParams()[CloudType::low_stratus];
   p.altitude_scale = 0;
   const std::vector<double> wide(64, 1e9);
