@@ -17,8 +17,8 @@
 #include "nephos/core/error.hpp"
 #include "nephos/io/png.hpp"
 #include "nephos/realtime/cloud_field.hpp"
-#include "nephos/realtime/gl/flight.hpp"
 #include "nephos/realtime/frame_logic.hpp"
+#include "nephos/realtime/gl/flight.hpp"
 #include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
 

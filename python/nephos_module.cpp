@@ -171,21 +171,34 @@ class Scene {
     py::gil_scoped_release release;
     return std::make_unique<render::RenderScene>(w.grid(), r);
   }
+  // Each (height, width) field of an image with its name, units and description, for the dict
+  // and the Dataset alike.
+  template <class Fn>
+  static void for_each_field(const render::RenderImage& img, Fn&& field) {
+    const std::vector<py::ssize_t> shape{img.height, img.width};
+    for (std::size_t b = 0; b < img.bands.size(); ++b) {
+      const std::string what = optics::band(img.bands[b]).description;
+      field("radiance_" + img.bands[b], to_array(img.radiance[b], shape), "W m-2 sr-1 um-1", what + " radiance");
+      if (!img.brightness_temperature[b].empty())
+        field("brightness_temperature_" + img.bands[b], to_array(img.brightness_temperature[b], shape), "K",
+              what + " brightness temperature");
+    }
+    field("cloud_top_altitude", to_array(img.cloud_top_altitude_m, shape), "m", "nearest cloud surface above MSL");
+    field("cloud_optical_depth", to_array(img.cloud_optical_depth, shape), "1", "visible cloud optical depth");
+    field("cloud_type", to_array(img.cloud_type, shape), "1",
+          "-1 none, 0 low stratus, 1 low cumulus, 2 altostratus, 3 cirrus");
+    field("cloud_fraction", to_array(img.cloud_fraction, shape), "1", "cloud area fraction of the pixel");
+    field("latitude", to_array(img.latitude_deg, shape), "degrees_north",
+          "latitude of the nearest cloud or Earth point");
+    field("longitude", to_array(img.longitude_deg, shape), "degrees_east",
+          "longitude of the nearest cloud or Earth point");
+  }
   static py::dict image_dict(const render::RenderedView& r) {
     const render::RenderImage& img = r.image;
-    const std::vector<py::ssize_t> shape{img.height, img.width};
     py::dict out;
-    for (std::size_t b = 0; b < img.bands.size(); ++b) {
-      out[py::str("radiance_" + img.bands[b])] = to_array(img.radiance[b], shape);
-      if (!img.brightness_temperature[b].empty())
-        out[py::str("brightness_temperature_" + img.bands[b])] = to_array(img.brightness_temperature[b], shape);
-    }
-    out["cloud_top_altitude"] = to_array(img.cloud_top_altitude_m, shape);
-    out["cloud_optical_depth"] = to_array(img.cloud_optical_depth, shape);
-    out["cloud_type"] = to_array(img.cloud_type, shape);
-    out["cloud_fraction"] = to_array(img.cloud_fraction, shape);
-    out["latitude"] = to_array(img.latitude_deg, shape);
-    out["longitude"] = to_array(img.longitude_deg, shape);
+    for_each_field(img, [&](const std::string& name, py::object array, const std::string&, const std::string&) {
+      out[py::str(name)] = array;
+    });
     py::dict seconds;
     for (const auto& [name, secs] : img.seconds_per_type) seconds[py::str(name)] = secs;
     out["seconds_per_type"] = seconds;
@@ -200,34 +213,17 @@ class Scene {
     const render::RenderImage& img = r.image;
     const render::FixedGridView& fg = *r.sensor.fixed_grid;
     const render::FixedGridSector& sec = fg.sector;
-    const std::vector<py::ssize_t> shape{img.height, img.width};
     std::vector<double> xs(static_cast<std::size_t>(sec.nx)), ys(static_cast<std::size_t>(sec.ny));
     for (int i = 0; i < sec.nx; ++i) xs[static_cast<std::size_t>(i)] = sec.x(i);
     for (int j = 0; j < sec.ny; ++j) ys[static_cast<std::size_t>(j)] = sec.y(j);
     const py::tuple yx = py::make_tuple("y", "x");
     py::dict vars;
-    auto field = [&](const std::string& name, py::object array, const std::string& units,
-                     const std::string& long_name) {
-      py::dict a;
-      a["units"] = units, a["long_name"] = long_name, a["grid_mapping"] = "goes_imager_projection";
-      vars[py::str(name)] = py::make_tuple(yx, array, a);
-    };
-    for (std::size_t b = 0; b < img.bands.size(); ++b) {
-      const std::string what = optics::band(img.bands[b]).description;
-      field("radiance_" + img.bands[b], to_array(img.radiance[b], shape), "W m-2 sr-1 um-1", what + " radiance");
-      if (!img.brightness_temperature[b].empty())
-        field("brightness_temperature_" + img.bands[b], to_array(img.brightness_temperature[b], shape), "K",
-              what + " brightness temperature");
-    }
-    field("cloud_top_altitude", to_array(img.cloud_top_altitude_m, shape), "m", "nearest cloud surface above MSL");
-    field("cloud_optical_depth", to_array(img.cloud_optical_depth, shape), "1", "visible cloud optical depth");
-    field("cloud_fraction", to_array(img.cloud_fraction, shape), "1", "cloud area fraction of the pixel");
-    field("cloud_type", to_array(img.cloud_type, shape), "1",
-          "-1 none, 0 low stratus, 1 low cumulus, 2 altostratus, 3 cirrus");
-    field("latitude", to_array(img.latitude_deg, shape), "degrees_north",
-          "latitude of the nearest cloud or Earth point");
-    field("longitude", to_array(img.longitude_deg, shape), "degrees_east",
-          "longitude of the nearest cloud or Earth point");
+    for_each_field(
+        img, [&](const std::string& name, py::object array, const std::string& units, const std::string& long_name) {
+          py::dict a;
+          a["units"] = units, a["long_name"] = long_name, a["grid_mapping"] = "goes_imager_projection";
+          vars[py::str(name)] = py::make_tuple(yx, array, a);
+        });
     py::dict proj;
     proj["grid_mapping_name"] = "geostationary",
     proj["perspective_point_height"] = render::FixedGridProjection::perspective_height_m;

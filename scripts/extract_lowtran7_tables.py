@@ -28,16 +28,7 @@ import sys
 
 def statements(path):
     """Fixed-form Fortran: comment lines dropped, continuation lines joined."""
-    out = []
-    for raw in open(path, encoding="latin-1"):
-        line = raw.rstrip("\n")
-        if not line or line[0] in "Cc*!":
-            continue
-        if len(line) > 5 and line[5] not in " 0" and out:
-            out[-1] += line[6:72]
-        else:
-            out.append(line[6:72])
-    return out
+    return statements_from_text(open(path, encoding="latin-1").read())
 
 
 def data_arrays(stmts):
@@ -194,6 +185,7 @@ def main(src, outdir):
 
 
 def statements_from_text(text):
+    """statements() of a source's text."""
     out = []
     for line in text.split("\n"):
         if not line or line[0] in "Cc*!":

@@ -135,24 +135,34 @@ CloudModelParams CloudModelParams::from(const ParamDict& dict) {
   return p;
 }
 
-std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const std::vector<CloudType>& types, int n) {
-  // The texels' latitudes and longitudes once for every type (a geodetic conversion costs more
-  // than the bilinear lookups).
-  std::vector<CubeMap<float>> cubes(types.size(), CubeMap<float>(n));
+namespace {
+// Fields of a lat-lon grid resampled onto n x n cube maps, one per field, NaN read as 0. The
+// texels' latitudes and longitudes are computed once for every field (a geodetic conversion
+// costs more than the lookups). Bicubic, not bilinear: a threshold on a bilinear field draws the
+// grid's cells (boxes of 2.5 degrees from the embedded GFS sample); the bicubic one keeps the
+// values at the nodes and within each cell's range, with round edges (weather::sample_bicubic).
+std::vector<CubeMap<float>> resample_to_cubes(const weather::LatLonGrid& grid,
+                                              const std::vector<const std::vector<float>*>& fields, int n) {
+  std::vector<CubeMap<float>> cubes(fields.size(), CubeMap<float>(n));
+  if (cubes.empty()) return cubes;
 #pragma omp parallel for collapse(2) schedule(static)
   for (int f = 0; f < 6; ++f)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
         const earth::Geodetic g = earth::geodetic(cubes.front().texel_direction(f, i, j) * earth::radius_m);
-        for (std::size_t t = 0; t < types.size(); ++t) {
-          // Bicubic, not bilinear: a threshold on a bilinear field draws the grid's cells (boxes
-          // of 2.5 degrees from the embedded GFS sample); the bicubic one keeps the mask values at
-          // the nodes and within each cell's range, with round edges (weather::sample_bicubic).
-          const float v = weather::sample_bicubic(masks.grid, masks[types[t]], g.lat_deg, g.lon_deg);
+        for (std::size_t t = 0; t < fields.size(); ++t) {
+          const float v = weather::sample_bicubic(grid, *fields[t], g.lat_deg, g.lon_deg);
           cubes[t].texel(f, i, j) = std::isnan(v) ? 0.0f : v;
         }
       }
   return cubes;
+}
+}  // namespace
+
+std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const std::vector<CloudType>& types, int n) {
+  std::vector<const std::vector<float>*> fields;
+  for (CloudType t : types) fields.push_back(&masks[t]);
+  return resample_to_cubes(masks.grid, fields, n);
 }
 
 namespace {
@@ -206,18 +216,9 @@ std::vector<CubeMap<float>> cloud_top_lifts(const weather::WeatherGrid& w, const
       if (!std::isnan(top)) lift[t][c] = static_cast<float>(std::clamp(top - p.shell_top_m, down, up));
     }
   }
-  std::vector<CubeMap<float>> cubes(types.size(), CubeMap<float>(n));
-#pragma omp parallel for collapse(2) schedule(static)
-  for (int f = 0; f < 6; ++f)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const earth::Geodetic g = earth::geodetic(cubes.front().texel_direction(f, i, j) * earth::radius_m);
-        for (std::size_t t = 0; t < types.size(); ++t) {
-          const float v = weather::sample_bicubic(w.grid(), lift[t], g.lat_deg, g.lon_deg);
-          cubes[t].texel(f, i, j) = std::isnan(v) ? 0.0f : v;
-        }
-      }
-  return cubes;
+  std::vector<const std::vector<float>*> fields;
+  for (const auto& l : lift) fields.push_back(&l);
+  return resample_to_cubes(w.grid(), fields, n);
 }
 
 CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,

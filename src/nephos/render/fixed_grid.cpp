@@ -13,6 +13,7 @@ namespace nephos::render {
 namespace {
 constexpr double r_eq = FixedGridProjection::semi_major_m, r_pol = FixedGridProjection::semi_minor_m;
 constexpr double eq_over_pol2 = (r_eq * r_eq) / (r_pol * r_pol);
+constexpr double full_disc_edge_rad = 0.151872;  // the full disc's outer edge, +-x and +-y (PUG)
 
 // Pixel spacing [rad] at ABI's 0.5, 1 and 2 km: 14, 28, 56 microradians (PUG Vol. 3, Table
 // 5.1.2.8-1: the x/y variables' scale factors).
@@ -85,7 +86,8 @@ FixedGridSector fixed_grid_sector(const FixedGridProjection& p, const std::strin
   // Outer edges [rad] of the sectors (the extents of satpy's area definitions, in metres on the
   // fixed grid over h, from the PUG's x/y offsets): full disc +-0.151872; GOES-East CONUS x
   // -0.101360..0.038640, y 0.044240..0.128240; GOES-West PACUS x +-0.070, y as CONUS.
-  if (scene == "full") return sector(scene, 'F', resolution_km, step, -0.151872, 0.151872, 0.151872, -0.151872);
+  constexpr double e = full_disc_edge_rad;
+  if (scene == "full") return sector(scene, 'F', resolution_km, step, -e, e, e, -e);
   if (scene == "conus") {
     const bool west = earth::wrap_lon_180(p.lon0_deg) < -105;
     const double y_south = 1583173.65752 / h, y_north = 4589199.58952 / h;
@@ -100,8 +102,8 @@ FixedGridSector fixed_grid_sector(const FixedGridProjection& p, const std::strin
                        {.key = "scene"});
     // 1000 km at the sub-satellite point: 500 pixels of 2 km, on the full disc's pixel lattice.
     const double d = spacing_rad(resolution_km), half = 0.5 * (1000.0 / resolution_km) * d;
-    const double x_west = -0.151872 + std::round((xc - half + 0.151872) / d) * d;
-    const double y_north = 0.151872 - std::round((0.151872 - (yc + half)) / d) * d;
+    const double x_west = -e + std::round((xc - half + e) / d) * d;
+    const double y_north = e - std::round((e - (yc + half)) / d) * d;
     return sector("meso", 'M', resolution_km, step, x_west, y_north, x_west + 2 * half, y_north - 2 * half);
   }
   throw ValueError("scene '" + scene + "': full, conus or meso:LAT,LON", {.key = "scene"});
