@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,12 +95,42 @@ class Weather {
           throw ValueError(fmt::format("the weather has no {} at {}", short_name, level_type), {.key = "short_name"});
         return to_array(w_.surface(si.field), {w_.grid().nlat, w_.grid().nlon});
       }
+    for (int l = 0; l < weather::cloud_layer_count; ++l) {
+      const auto layer = static_cast<weather::CloudLayer>(l);
+      if (short_name != "tcc" || level_type != weather::grib_level_type(layer)) continue;
+      if (!w_.has_cloud_cover(layer))
+        throw ValueError(fmt::format("the weather has no tcc at {}", level_type), {.key = "short_name"});
+      return to_array(w_.cloud_cover(layer), {w_.grid().nlat, w_.grid().nlon});
+    }
     std::vector<std::string> known;
     for (const auto& si : weather::all_surface_fields())
       known.push_back(fmt::format("{}@{}", si.grib_short_name, si.grib_level_type));
+    for (int l = 0; l < weather::cloud_layer_count; ++l)
+      known.push_back(fmt::format("tcc@{}", weather::grib_level_type(static_cast<weather::CloudLayer>(l))));
     throw ValueError(
         fmt::format("no single-level field {}@{} (known: {})", short_name, level_type, fmt::join(known, ", ")),
         {.key = "short_name"});
+  }
+  py::array_t<double> pressure_levels_pa() const {
+    const auto& p = w_.pressure_levels_pa();
+    return to_array(p, {static_cast<py::ssize_t>(p.size())});
+  }
+  // A field on the pressure levels (nlev, nlat, nlon), bottom level first; NaN at levels the file
+  // lacks.
+  py::array_t<float> level_field(const std::string& short_name) const {
+    for (const auto& fi : weather::all_fields()) {
+      if (short_name != fi.grib_short_name) continue;
+      if (!w_.has(fi.field))
+        throw ValueError(fmt::format("the weather has no {} on pressure levels", short_name), {.key = "short_name"});
+      const std::size_t n = w_.grid().size();
+      std::vector<float> v(n * static_cast<std::size_t>(w_.level_count()), std::numeric_limits<float>::quiet_NaN());
+      for (int k : w_.levels_of(fi.field)) std::copy_n(w_.level_data(fi.field, k), n, v.begin() + k * n);
+      return to_array(v, {w_.level_count(), w_.grid().nlat, w_.grid().nlon});
+    }
+    std::vector<std::string> known;
+    for (const auto& fi : weather::all_fields()) known.emplace_back(fi.grib_short_name);
+    throw ValueError(fmt::format("no pressure-level field {} (known: {})", short_name, fmt::join(known, ", ")),
+                     {.key = "short_name"});
   }
 
  private:
@@ -559,7 +590,13 @@ void def_weather_and_scene(py::module_& m) {
       .def_property_readonly("longitudes", &Weather::longitudes, "Column longitudes [deg east].")
       .def("field", &Weather::field, py::arg("short_name"), py::arg("level_type") = "surface",
            "A single-level field (nlat, nlon): the surface, column, tropopause, GFS's cloud tops and top-of-"
-           "atmosphere fluxes (e.g. field('ulwrf', 'nominalTop')), in SI units (albedo as a fraction).")
+           "atmosphere fluxes (e.g. field('ulwrf', 'nominalTop')) and GFS's layer cloud cover (field('tcc', "
+           "'lowCloudLayer'), as fractions), in SI units (albedo as a fraction).")
+      .def_property_readonly("pressure_levels_pa", &Weather::pressure_levels_pa,
+                             "The pressure levels [Pa], bottom first.")
+      .def("level_field", &Weather::level_field, py::arg("short_name"),
+           "A field on the pressure levels (nlev, nlat, nlon), bottom first, in WeatherGrid's units (gh [gpm], t "
+           "[K], r [fraction], w [Pa s-1], u, v [m s-1], clwmr, o3mr [kg kg-1]); NaN at levels the file lacks.")
       .def("masks", &Weather::masks, py::arg("config") = py::none(),
            "The four cloud masks (Table 1) as {type: array (nlat, nlon)} of values in [0, 1]; `config` a TOML file "
            "as for `nephos masks --config`.")

@@ -43,6 +43,7 @@ SOLAR_BANDS = ["blue", "vis", "nir", "cirrus", "swir16", "swir22"]
 SOLAR_WEIGHTS = np.array([0.30, 0.22, 0.26, 0.06, 0.09, 0.07])
 GEO_LON, GEO_RADIUS_M, EARTH_RADIUS_M = -75.2, 42164.0e3, 6371008.8
 MAX_VZA = 70.0  # deg: cells the sensor sees at most this far from nadir
+ALBEDO_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the 6-hour window's thirds
 
 
 def unit(lat, lon):
@@ -63,6 +64,16 @@ def cos_sun_zenith(lat, lon, time):
     return np.sum(unit(lat, lon) * unit(s["subsolar_latitude_deg"], s["subsolar_longitude_deg"]), axis=-1), s
 
 
+def reflectance(image, sun, mu0):
+    """The solar-weighted mean of the bands' reflectance factors pi L / (E mu0)."""
+    bands = {b["name"]: b for b in nephos.bands()}
+    refl = np.zeros_like(mu0)
+    for weight, name in zip(SOLAR_WEIGHTS, SOLAR_BANDS):
+        e = bands[name]["solar_irradiance_w_m2_um"] / sun["distance_au"] ** 2
+        refl += weight * np.pi * image["radiance_" + name] / (e * np.maximum(mu0, 1e-6))
+    return np.where(mu0 > 0.1, refl / SOLAR_WEIGHTS.sum(), np.nan)
+
+
 def grid_mean(values, lat, lon, lats, lons):
     """The mean of the finite pixel values in each weather cell (nearest node), and their count."""
     dlat, dlon = lats[1] - lats[0], lons[1] - lons[0]
@@ -76,6 +87,72 @@ def grid_mean(values, lat, lon, lats, lons):
     np.add.at(count, (j[ok], i[ok]), 1)
     with np.errstate(invalid="ignore"):
         return total / count, count
+
+
+def instantaneous_layer_cover(w):
+    """GFS's low, middle and high cloud cover at the valid time, diagnosed as GFS's radiation does
+    from the instantaneous profiles: Xu & Randall (1996) per level, c = RH^0.25 (1 - exp(-2000 q_c /
+    ((1 - RH) q_s)^0.25)), c = 0 where q_c <= 1e-6 p / 1000 hPa (q_s over water above 0 C, ice below
+    -20 C, Alduchov & Eskridge 1996); maximum-random overlap within each layer; the layers' tops at
+    650 and 400 hPa equatorward of 45 deg, rising linearly to 750 and 500 hPa at the poles (GFS's
+    cloud domains). Returns ({layer: cover}, {layer: temperature at its highest cloudy level [K]})."""
+    p = w.pressure_levels_pa
+    t, rh, qc = w.level_field("t"), np.clip(w.level_field("r"), 0, 1), w.level_field("clwmr")
+    tc = t - 273.15
+    e_w = 610.94 * np.exp(17.625 * tc / (tc + 243.04))
+    e_i = 611.21 * np.exp(22.587 * tc / (tc + 273.86))
+    mix = np.clip(tc / 20 + 1, 0, 1)
+    es = np.minimum(mix * e_w + (1 - mix) * e_i, 0.5 * p[:, None, None])
+    qs = 0.622 * es / (p[:, None, None] - 0.378 * es)
+    denom = np.clip(np.sqrt(np.sqrt(np.maximum(1 - rh, 1e-10) * qs)), 1e-4, 1)
+    cf = rh ** 0.25 * (1 - np.exp(-np.minimum(2000 * qc / denom, 50)))
+    cf = np.where(np.isfinite(cf) & (qc > 1e-6 * p[:, None, None] / 1e5), np.clip(cf, 0, 1), 0.0)
+    lat = np.abs(w.latitudes)[:, None] * np.ones((1, len(w.longitudes)))
+    rise = np.clip(4 * np.radians(lat) / np.pi - 1, 0, 1)
+    tops = {"low": 65000 + 10000 * rise, "middle": 40000 + 10000 * rise, "high": np.zeros_like(rise)}
+    bottoms = {"low": np.full_like(rise, np.inf), "middle": tops["low"], "high": tops["middle"]}
+    cover, top_t = {}, {}
+    for layer in ("low", "middle", "high"):
+        clear, run = np.ones_like(rise), np.zeros_like(rise)
+        top = np.full_like(rise, np.nan)
+        for k in range(len(p)):  # bottom up: contiguous cloudy levels overlap maximally
+            c = np.where((p[k] < bottoms[layer]) & (p[k] >= tops[layer]), cf[k], 0.0)
+            clear = np.where((c <= 0) & (run > 0), clear * (1 - run), clear)
+            run = np.where(c > 0, np.maximum(run, c), 0.0)
+            top = np.where(c > 0.01, t[k], top)
+        cover[layer], top_t[layer] = 1 - clear * (1 - run), top
+    return cover, top_t
+
+
+def fit_correlation(target, predictors, cells, area):
+    """The area-weighted correlation with `target` of its least-squares fit from `predictors` on `cells`
+    (fitted on the same cells: an optimistic measure of what they explain)."""
+    x = np.stack([np.ones_like(target)] + [np.nan_to_num(v) for v in predictors], axis=-1)[cells]
+    s = np.sqrt(area[cells])
+    coef, *_ = np.linalg.lstsq(x * s[:, None], target[cells] * s, rcond=None)
+    fit = np.full_like(target, np.nan)
+    fit[cells] = x @ coef
+    return weighted_stats(fit, target, area)["correlation"]
+
+
+def reference_fits(w, gfs_olr, gfs_albedo, olr_cells, albedo_cells, area):
+    """What GFS's own cloud cover explains of its fluxes: linear fits from the 6-hour mean layer covers
+    (the fields the fluxes were averaged with) and from the covers at the valid time (all that an
+    instantaneous rendering can know), with the same surface and column predictors."""
+    sigma_ts4 = STEFAN_BOLTZMANN * w.field("t", "surface") ** 4
+    pwat, al = w.field("pwat", "atmosphereSingleLayer"), w.field("al", "surface")
+    now, now_t = instantaneous_layer_cover(w)
+    mean = {layer: w.field("tcc", f"{layer}CloudLayer") for layer in ("low", "middle", "high")}
+    out = {}
+    for name, cover in (("six_hour_covers", mean), ("valid_time_covers", now)):
+        c = [cover[layer] for layer in ("low", "middle", "high")]
+        emission = [cover[layer] * STEFAN_BOLTZMANN * np.nan_to_num(now_t[layer], nan=0.0) ** 4
+                    for layer in ("low", "middle", "high")]
+        out[name] = {
+            "olr": fit_correlation(gfs_olr, c + emission + [sigma_ts4, pwat], olr_cells, area),
+            "albedo": fit_correlation(gfs_albedo, c + [al, al * (1 - np.maximum.reduce(c))], albedo_cells, area),
+        }
+    return out
 
 
 def weighted_stats(a, b, w):
@@ -138,21 +215,28 @@ def main():
     tb = img["brightness_temperature_lwir11"]
     olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
     olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
-    # Short wave under the Sun at the window's middle: each band's reflectance factor, weighted.
+    # Short wave under the Sun at the window's middle, as GFS's is defined: the reflected flux summed
+    # over instants through the window over the insolation summed over them.
     _, mid_sun = cos_sun_zenith(0.0, 0.0, valid - timedelta(hours=3))
     sw_lon = round(mid_sun["subsolar_longitude_deg"], 1)
-    sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS)
-    lat, lon = sw["latitude"], sw["longitude"]
-    mu0, sun = cos_sun_zenith(lat, lon, valid)
-    bands = {b["name"]: b for b in nephos.bands()}
-    refl = np.zeros_like(lat)
-    for weight, name in zip(SOLAR_WEIGHTS, SOLAR_BANDS):
-        e = bands[name]["solar_irradiance_w_m2_um"] / sun["distance_au"] ** 2
-        refl += weight * np.pi * sw["radiance_" + name] / (e * np.maximum(mu0, 1e-6))
-    albedo = np.where((view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & (mu0 > 0.1), refl / SOLAR_WEIGHTS.sum(), np.nan)
+    lats, lons = w.latitudes, w.longitudes
+    reflected, incident = 0.0, 0.0
+    for hours in ALBEDO_INSTANTS_H:
+        when = valid - timedelta(hours=hours)
+        sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS,
+                          time=when.strftime("%Y-%m-%dT%H:%M:%SZ"))
+        lat, lon = sw["latitude"], sw["longitude"]
+        mu0, sun = cos_sun_zenith(lat, lon, when)
+        irradiance = np.maximum(mu0, 0) / sun["distance_au"] ** 2  # in units of the solar constant
+        refl = reflectance(sw, sun, mu0)
+        seen = (view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & np.isfinite(refl)
+        f, n_alb = grid_mean(np.where(seen, refl * irradiance, np.nan), lat, lon, lats, lons)
+        e, _ = grid_mean(np.where(seen, irradiance, np.nan), lat, lon, lats, lons)
+        reflected, incident = reflected + f, incident + e
+    with np.errstate(invalid="ignore", divide="ignore"):
+        alb_grid = reflected / incident
     lats, lons = w.latitudes, w.longitudes
     olr_grid, n_olr = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
-    alb_grid, n_alb = grid_mean(albedo, lat, lon, lats, lons)
     la, lo = np.meshgrid(lats, lons, indexing="ij")
     area = np.cos(np.radians(la))
     # GFS: outgoing long-wave; short wave over the insolation of its 6-hour window, on cells lit
@@ -172,6 +256,8 @@ def main():
         "longwave_sensor": f"geo:{GEO_LON}", "shortwave_sensor": f"geo:{sw_lon}",
         "olr": weighted_stats(olr_grid, gfs_olr, area),
         "albedo": weighted_stats(alb_grid, gfs_albedo, area),
+        "gfs_cover_fits": reference_fits(w, gfs_olr, gfs_albedo, np.isfinite(olr_grid) & np.isfinite(gfs_olr),
+                                         np.isfinite(alb_grid) & np.isfinite(gfs_albedo), area),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     rows = np.where((lats >= -70) & (lats <= 70))[0]
