@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
+#include <utility>
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
@@ -91,6 +94,62 @@ TEST(FixedGrid, RaysMeetTheSphereWhereTheGridSays) {
       ++on_earth;
     }
   EXPECT_GT(on_earth, 400);
+}
+
+// Where a ray meets the surface of geodetic height h on the GRS80 ellipsoid (its semi-axes
+// grown by h: within metres of that surface for h <= 15 km), and that point's geodetic latitude
+// and longitude [rad] (Bowring's iteration, converged to 1e-12 rad).
+std::optional<std::pair<double, double>> ellipsoid_geodetic(const earth::Vec3& o, const earth::Vec3& d, double h) {
+  const double a = FixedGridProjection::semi_major_m + h, b = FixedGridProjection::semi_minor_m + h;
+  const earth::Vec3 q{1 / (a * a), 1 / (a * a), 1 / (b * b)};
+  const double qa = glm::dot(q * d, d), qb = 2 * glm::dot(q * d, o), qc = glm::dot(q * o, o) - 1;
+  const double disc = qb * qb - 4 * qa * qc;
+  if (disc < 0) return std::nullopt;
+  const earth::Vec3 p = o + d * ((-qb - std::sqrt(disc)) / (2 * qa));
+  const double a0 = FixedGridProjection::semi_major_m, b0 = FixedGridProjection::semi_minor_m;
+  const double e2 = 1 - b0 * b0 / (a0 * a0), rho = std::hypot(p.x, p.y);
+  double lat = std::atan2(p.z, rho * (1 - e2));
+  for (int k = 0; k < 20; ++k) {
+    const double n = a0 / std::sqrt(1 - e2 * std::sin(lat) * std::sin(lat));
+    const double height = rho / std::cos(lat) - n;
+    lat = std::atan2(p.z, rho * (1 - e2 * n / (n + height)));
+  }
+  return std::make_pair(lat, std::atan2(p.y, p.x));
+}
+
+// Clouds sit where the ellipsoid puts them. A cloud at geodetic height h seen in a pixel lies,
+// on ABI's line of sight, where that line meets the ellipsoid's surface of height h. The
+// renderer meets it on its sphere at radius R + h, along its ray. Compare the latitude and
+// longitude each assigns to it, over the full disc within 70 deg of nadir, h = 2, 10, 15 km.
+// They agree within 0.13 km, against a 2 km pixel; the bound is 0.25 km. Fault seen to fail:
+// rays along the scan angles' own line of sight (the sphere taken for the Earth): 42 km.
+TEST(FixedGrid, CloudsSitWhereTheEllipsoidPutsThem) {
+  const FixedGridView v = abi_view("abi:east", "full", 2, 32);
+  const Sensor s = Sensor::abi(v);
+  double worst_m = 0;
+  int seen = 0;
+  for (int j = 0; j < s.height; j += 3)
+    for (int i = 0; i < s.width; i += 3) {
+      const earth::Vec3 los = v.projection.line_of_sight(v.sector.x(i), v.sector.y(j));
+      const auto ground = ellipsoid_geodetic(s.position, los, 0);
+      if (!ground) continue;
+      const earth::Vec3 up = earth::unit_from_latlon(ground->first / earth::deg, ground->second / earth::deg);
+      if (glm::dot(-los, up) < std::cos(70 * earth::deg)) continue;
+      const earth::Vec3 d = s.ray(i + 0.5, j + 0.5);
+      for (double h : {2e3, 10e3, 15e3}) {
+        const auto truth = ellipsoid_geodetic(s.position, los, h);
+        const auto hit = earth::ray_sphere(s.position, d, earth::radius_m + h);
+        ASSERT_TRUE(truth && hit);
+        const earth::Vec3 n = glm::normalize(s.position + hit->t0 * d);
+        const double lat = std::asin(n.z), lon = std::atan2(n.y, n.x);
+        const double c = std::sin(lat) * std::sin(truth->first) +
+                         std::cos(lat) * std::cos(truth->first) * std::cos(lon - truth->second);
+        worst_m = std::max(worst_m, earth::radius_m * std::acos(std::clamp(c, -1.0, 1.0)));
+      }
+      ++seen;
+    }
+  EXPECT_GT(seen, 1000);
+  EXPECT_LT(worst_m, 250.0);
 }
 
 }  // namespace
