@@ -306,6 +306,27 @@ class AbiL1b(unittest.TestCase):
             sensor="abi:east", abi_step=64, bands=["lwir"], as_dict=True), dict)
 
 
+    def test_the_docs_map_example(self):
+        # scripts/plot_abi_map.py, docs/render.md's example: satpy opens nephos's files and
+        # cartopy draws band 13 on the sensor's projection, the weather's coastline over it.
+        # Faults caught: files satpy cannot read or that lack their area, a missing channel
+        # that is not said plainly.
+        script = Path(__file__).resolve().parent.parent / "scripts" / "plot_abi_map.py"
+        ds = nephos.Scene(nephos.Weather(str(SAMPLE)), texture=16).render(sensor="abi:east", abi_step=32,
+                                                                          bands=["lwir"])
+        with tempfile.TemporaryDirectory() as d:
+            nephos.write_abi_l1b(ds, d)
+            png = Path(d) / "map.png"
+            r = subprocess.run([sys.executable, str(script), d, str(png), "--weather", str(SAMPLE)],
+                               capture_output=True, text=True, env=dict(os.environ))
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertTrue(png.read_bytes().startswith(b"\x89PNG"))
+            r = subprocess.run([sys.executable, str(script), d, str(png), "--channel", "C07"],
+                               capture_output=True, text=True, env=dict(os.environ))
+            self.assertNotEqual(r.returncode, 0)
+            self.assertIn("no C07 L1b file", r.stderr)
+
+
 class Lbm(unittest.TestCase):
     def test_the_stages_equal_nephos_lbm_bit_for_bit(self):
         # The pipeline of `nephos lbm` composed in Python: water model, percolation, lighting and

@@ -27,6 +27,7 @@ packages=(
   libbenchmark-dev                    # benchmarks
   python3 python3-numpy python3-xarray python3-netcdf4   # interoperability tests (xarray reads our NetCDF)
   python3-satpy                       # interoperability tests (satpy reads our ABI L1b files)
+  python3-cartopy python3-matplotlib  # the documented satpy map example (scripts/plot_abi_map.py, tested)
   python3-dev pybind11-dev            # the Python module (numpy arrays)
 )
 
