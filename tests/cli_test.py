@@ -359,6 +359,9 @@ class AbiL1b(unittest.TestCase):
             f = netCDF4.Dataset(next((d / "l1b").glob(f"*{channel}_G16*.nc")))
             f.set_auto_mask(False)
             fk1, fk2, bc2 = (float(f[k][...]) for k in ("planck_fk1", "planck_fk2", "planck_bc2"))
+            # GOES-16's published coefficients, as NOAA's own L1b files print them (float32).
+            published = {"C07": (202263.0, 3698.19), "C08": (50687.1, 2331.58), "C13": (10803.3, 1392.74)}
+            self.assertEqual((fk1, fk2), tuple(float(np.float32(v)) for v in published[channel]))
             rad = fk1 / (np.exp(fk2 / (float(f["planck_bc1"][...]) + bc2 * ours[valid])) - 1)
             dbt_drad = fk2 * fk1 / (bc2 * rad * (rad + fk1) * np.log(fk1 / rad + 1) ** 2)
             half_step = 0.5 * float(f["Rad"].scale_factor) * dbt_drad

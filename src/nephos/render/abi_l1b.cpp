@@ -1,6 +1,7 @@
 #include "nephos/render/abi_l1b.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 
@@ -76,7 +77,7 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.add_dimension("number_of_time_bounds", 2);
   // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
   // 1.5; thermal bands [mW m^-2 sr^-1 (cm^-1)^-1] up to 350 K.
-  const PlanckCoefficients pc = planck_coefficients(band);
+  const PlanckCoefficients pc = abi_planck_coefficients(view.platform, band);
   const double rad_max = band.thermal ? pc.radiance(350) : 1.5 * band.solar_irradiance / M_PI;
   const double scale = rad_max / counts;
   const int rad = nc.add_variable("Rad", io::NcType::i16, {"y", "x"});
@@ -203,6 +204,41 @@ PlanckCoefficients planck_coefficients(const optics::Band& b) {
   }
   p.bc2 = (n * sxy - sx * sy) / (n * sxx - sx * sx), p.bc1 = (sy - p.bc2 * sx) / n;
   return p;
+}
+
+namespace {
+// The Planck coefficients NOAA's ABI L1b files carry (fk1 [mW m^-2 sr^-1 cm^-1 per cm^-4 of
+// nu^3, i.e. c1 nu^3], fk2 [K], bc1 [K], bc2), from ABI's measured spectral responses: GOES-16
+// bands 7-16 (OR_ABI-L1b-Rad*-M6Cnn_G16 files) and GOES-18 band 13 (M6C13_G18). The CMI ATBD
+// (Schmit & Gunshor 2021, v4) quotes band 13's.
+struct PublishedPlanck {
+  const char* platform;
+  int abi_band;
+  PlanckCoefficients c;
+};
+constexpr std::array<PublishedPlanck, 11> published_planck{{
+    {"G16", 7, {202263.0, 3698.19, 0.43361, 0.99939}},  {"G16", 8, {50687.1, 2331.58, 1.55228, 0.99667}},
+    {"G16", 9, {35828.3, 2076.95, 0.34427, 0.99918}},   {"G16", 10, {30174.0, 1961.38, 0.05651, 0.99986}},
+    {"G16", 11, {19779.9, 1703.83, 0.18733, 0.99948}},  {"G16", 12, {13432.1, 1497.61, 0.09102, 0.99971}},
+    {"G16", 13, {10803.3, 1392.74, 0.07550, 0.99975}},  {"G16", 14, {8510.22, 1286.27, 0.22516, 0.99920}},
+    {"G16", 15, {6454.62, 1173.03, 0.21702, 0.99916}},  {"G16", 16, {5101.27, 1084.53, 0.06266, 0.99974}},
+    {"G18", 13, {10818.40, 1393.39, 0.07725, 0.99974}},
+}};
+
+const PlanckCoefficients* find_published(const std::string& platform, const optics::Band& b) {
+  for (const PublishedPlanck& p : published_planck)
+    if (platform == p.platform && b.abi_band == p.abi_band) return &p.c;
+  return nullptr;
+}
+}  // namespace
+
+PlanckCoefficients abi_planck_coefficients(const std::string& platform, const optics::Band& b) {
+  const PlanckCoefficients* p = find_published(platform, b);
+  return p ? *p : planck_coefficients(b);
+}
+
+bool has_published_planck(const std::string& platform, const optics::Band& b) {
+  return find_published(platform, b) != nullptr;
 }
 
 std::string abi_l1b_file_name(const FixedGridView& view, int abi_band, const UtcTime& start) {

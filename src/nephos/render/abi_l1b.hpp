@@ -26,6 +26,13 @@ struct PlanckCoefficients {
 /// c2 nu at its centre wavenumber nu, bc1 and bc2 the least-squares line of the centre's
 /// brightness temperature against the band-mean one over 180-340 K.
 PlanckCoefficients planck_coefficients(const optics::Band& b);
+/// The coefficients `platform`'s ("G16", "G18") L1b files carry for thermal band b: the published
+/// ones (those of ABI's measured spectral responses, as NOAA's files print them: GOES-16 bands
+/// 7-16, GOES-18 band 13) where known, else planck_coefficients(b). Rad is written as the
+/// radiance these give nephos's brightness temperature, so satpy's BT is nephos's whichever.
+PlanckCoefficients abi_planck_coefficients(const std::string& platform, const optics::Band& b);
+/// Whether abi_planck_coefficients(platform, b) are the published ones.
+bool has_published_planck(const std::string& platform, const optics::Band& b);
 
 /// The file name ABI gives band `abi_band`'s L1b file of `view` for a scan from `start`:
 /// OR_ABI-L1b-Rad{F,C,M}-M6C{nn}_{G16,G18}_s{YYYYJJJHHMMSSt}_e{...}_c{...}.nc (end and creation:

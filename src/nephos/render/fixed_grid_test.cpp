@@ -9,6 +9,8 @@
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
+#include "nephos/optics/optics.hpp"
+#include "nephos/render/abi_l1b.hpp"
 #include "nephos/render/sensor.hpp"
 
 namespace nephos::render {
@@ -150,6 +152,34 @@ TEST(FixedGrid, CloudsSitWhereTheEllipsoidPutsThem) {
     }
   EXPECT_GT(seen, 1000);
   EXPECT_LT(worst_m, 250.0);
+}
+
+// The published GOES-16 Planck coefficients (NOAA's L1b files) against physics and nephos's
+// bands, for every thermal band: fk1 = c1 nu^3 at the wavenumber nu = fk2 / c2 that fk2 implies
+// (c1, c2 from CODATA; within 0.05 %: the values' printed digits; a mistyped digit is off by
+// more), that wavenumber inside nephos's band edges (the bands are ABI's), and the calibration
+// inverting itself. GOES-18 has band 13's; its other bands fall back to nephos's own.
+TEST(AbiL1b, PublishedPlanckCoefficientsAreAbisBands) {
+  constexpr double c1 = 1.191042e-5, c2 = 1.4387752;
+  int published = 0;
+  for (const optics::Band& b : optics::bands()) {
+    if (!b.thermal) continue;
+    ASSERT_TRUE(has_published_planck("G16", b)) << b.name;
+    const PlanckCoefficients p = abi_planck_coefficients("G16", b);
+    const double nu = p.fk2 / c2;
+    EXPECT_NEAR(p.fk1 / (c1 * nu * nu * nu), 1.0, 5e-4) << b.name;
+    EXPECT_GT(1e4 / nu, b.lo_um) << b.name;
+    EXPECT_LT(1e4 / nu, b.hi_um) << b.name;
+    EXPECT_GT(p.bc2, 0.99) << b.name;
+    for (double t : {200.0, 250.0, 300.0}) EXPECT_NEAR(p.brightness_temperature(p.radiance(t)), t, 1e-9) << b.name;
+    ++published;
+  }
+  EXPECT_EQ(published, 10);
+  EXPECT_TRUE(has_published_planck("G18", optics::band("lwir")));
+  EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("lwir")).fk2, 1393.39, 1e-9);
+  EXPECT_FALSE(has_published_planck("G18", optics::band("wv62")));
+  EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("wv62")).fk2,
+              planck_coefficients(optics::band("wv62")).fk2, 1e-12);
 }
 
 }  // namespace
