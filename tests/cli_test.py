@@ -337,8 +337,9 @@ class AbiL1b(unittest.TestCase):
     def test_satpy_calibrates_to_nephos_values(self):
         # Brightness temperatures from Rad by satpy's calibration equal nephos's own to 0.05 K
         # wherever Rad's 15-bit packing resolves 0.05 K (bands 8 and 13 everywhere; band 7 above
-        # ~250 K: its radiance spans 10^4 between 200 and 350 K), elsewhere to half a packing
-        # step (the format's own limit; ABI's 14-bit band 7 is coarser still). The reflectance factor
+        # ~250 K: its radiance spans 10^4 between 200 and 350 K), elsewhere to the brightness
+        # temperatures half a packing step spans either way (the format's own limit; ABI's 14-bit
+        # band 7 is coarser still). The reflectance factor
         # equals pi L d^2 / esun of nephos's radiance to 0.1 percentage points (the packing's
         # 1.5 / 32766), d from the orbit's eccentricity (1 - 0.01672 cos(0.9856 deg (doy - 4)),
         # 1e-4 AU). Faults caught: a thermal band's Rad in nephos's W m-2 sr-1 um-1 (tens of K
@@ -362,9 +363,13 @@ class AbiL1b(unittest.TestCase):
             # GOES-16's published coefficients, as NOAA's own L1b files print them (float32).
             published = {"C07": (202263.0, 3698.19), "C08": (50687.1, 2331.58), "C13": (10803.3, 1392.74)}
             self.assertEqual((fk1, fk2), tuple(float(np.float32(v)) for v in published[channel]))
-            rad = fk1 / (np.exp(fk2 / (float(f["planck_bc1"][...]) + bc2 * ours[valid])) - 1)
-            dbt_drad = fk2 * fk1 / (bc2 * rad * (rad + fk1) * np.log(fk1 / rad + 1) ** 2)
-            half_step = 0.5 * float(f["Rad"].scale_factor) * dbt_drad
+            bc1 = float(f["planck_bc1"][...])
+            rad = fk1 / (np.exp(fk2 / (bc1 + bc2 * ours[valid])) - 1)
+            h = 0.5 * float(f["Rad"].scale_factor)  # half a packing step, and the BT it spans either way
+            with np.errstate(divide="ignore", invalid="ignore"):
+                bt_low = (fk2 / np.log(fk1 / np.maximum(rad - h, 1e-30) + 1) - bc1) / bc2
+                bt_high = (fk2 / np.log(fk1 / (rad + h) + 1) - bc1) / bc2
+            half_step = np.maximum(ours[valid] - bt_low, bt_high - ours[valid])
             tolerance = np.maximum(0.05, 1.001 * half_step)
             self.assertTrue(np.all(np.abs(satpy_bt[valid] - ours[valid]) <= tolerance), channel)
             if channel != "C07":

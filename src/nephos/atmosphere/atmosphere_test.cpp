@@ -164,5 +164,43 @@ TEST(ClearSky, SlantPathsSaturate) {
   EXPECT_LT(t2, t1);
 }
 
+// The sky's downwelling emission (ClearSkyColumn::sky_down) against two limits that owe nothing
+// to the code's direction of integration:
+//  - an isothermal column emits B(T)(1 - t) up and down alike, so the sky's radiance equals the
+//    column's upward path radiance at the same diffusivity air mass (1e-5: float storage);
+//  - in a band the air makes opaque near the ground (6.2 um, band 8), the sky's brightness
+//    temperature is the air's just above the ground: the US standard atmosphere's 288.15 K less
+//    at most ~2 K (its lapse rate over the lowest ~300 m); measured 287.80 K. Integrated from the
+//    top down instead (a fault seen to fail), it shows the upper troposphere's 233 K;
+//  - with a lapse rate, the sky (lit by the warm low air) is brighter than the same column seen
+//    from above (by its cold upper air) in the window: 1.13 times; the same fault gives 1.000.
+TEST(ClearSky, TheSkyShinesWithTheAirNearTheGround) {
+  Profile iso = fine_us_standard(100);
+  for (double& t : iso.t_k) t = 280;
+  for (const char* name : {"lwir", "wv62", "ir85"}) {
+    const ClearSkyColumn c = clear_sky_column(iso, optics::band(name), {diffusivity_air_mass, -1.0, 1e6}, 45);
+    EXPECT_NEAR(c.sky_down / c.path_radiance.front(), 1.0, 1e-5) << name;
+  }
+  const Profile s = fine_us_standard(100);
+  const optics::Band& wv = optics::band("wv62");
+  const double bt = optics::band_brightness_temperature(wv, clear_sky_column(s, wv, {1.0, -1.0, 1e6}, 45).sky_down);
+  std::printf("[ measured ] band 8 sky brightness temperature %.2f K (air at the ground 288.15 K)\n", bt);
+  EXPECT_LT(bt, 288.15);
+  EXPECT_GT(bt, 286.15);
+  const optics::Band& win = optics::band("lwir");
+  const ClearSkyColumn w = clear_sky_column(s, win, {diffusivity_air_mass, -1.0, 1e6}, 45);
+  std::printf("[ measured ] 10.35 um: sky / column seen from above %.3f\n", w.sky_down / w.path_radiance.front());
+  EXPECT_GT(w.sky_down, 1.05 * w.path_radiance.front());
+  EXPECT_EQ(clear_sky_column(s, optics::band("vis"), {1.0, -1.0, 1e6}, 45).sky_down, 0.0);
+  // What the reflected sky adds at the top of the atmosphere, at nadir over a ground of
+  // emissivity 0.75 (quartz sand at 8.5 um) at the air's temperature (for the docs).
+  const optics::Band& ir85 = optics::band("ir85");
+  const ClearSkyColumn n = clear_sky_column(s, ir85, {1.0, -1.0, 1e6}, 45);
+  const double emitted = 0.75 * optics::band_planck(ir85, s.t_k[0]) * n.t_view.front() + n.path_radiance.front();
+  std::printf("[ measured ] 8.5 um over emissivity 0.75: the reflected sky adds %.2f K\n",
+              optics::band_brightness_temperature(ir85, emitted + 0.25 * n.sky_down * n.t_view.front()) -
+                  optics::band_brightness_temperature(ir85, emitted));
+}
+
 }  // namespace
 }  // namespace nephos::atmosphere

@@ -98,6 +98,28 @@ double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
     sum += rayleigh_optical_depth(b.lo_um + (i + 0.5) * (b.hi_um - b.lo_um) / 5, p_pa, lat, 0.0);
   return sum / 5;
 }
+
+// The sky's downwelling thermal radiance at the bottom of profile p in band b (ClearSkyColumn::
+// sky_down): per sub-band, upwards from the bottom, B(T_layer) times the drop in the diffuse
+// transmittance from the bottom to the layer's bottom and top.
+double sky_down(const Profile& p, const optics::Band& b) {
+  if (!b.thermal || p.size() < 2) return 0;
+  double total = 0;
+  for (const SubBand& s : gas_model(b).sub) {
+    std::array<double, gas_count> w{};
+    double tau = 0, t_below = 1, radiance = 0;
+    for (std::size_t k = 0; k + 1 < p.size(); ++k) {
+      const LayerOptics l = layer_optics(p, k, k + 1, s);
+      for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += l.w[gi];
+      tau += l.tau_cont;
+      const double t_here = path_transmittance(s, w, tau, diffusivity_air_mass);
+      radiance += optics::planck(s.wavelength_um, l.t_mean) * (t_below - t_here);
+      t_below = t_here;
+    }
+    total += s.weight * radiance;
+  }
+  return total;
+}
 }  // namespace
 
 double air_mass(double mu) {
@@ -106,12 +128,14 @@ double air_mass(double mu) {
   return 1 / (std::max(mu, 0.0) + 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364));
 }
 
+
 ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, const ColumnGeometry& g, double lat) {
   const Profile p = below_sensor(full, g.sensor_altitude_m);
   ClearSkyColumn c;
   const std::size_t nl = p.size();
   if (nl < 2) return c;
   c.view_air_mass = g.view_air_mass, c.sun_air_mass = g.sun_air_mass;
+  c.sky_down = sky_down(full, b);
   c.z_m.assign(p.z_m.begin(), p.z_m.end());
   c.t_view.assign(nl, 0.0f), c.path_radiance.assign(nl, 0.0f), c.t_solar.assign(nl, 0.0f);
   c.tau_rayleigh.resize(nl);

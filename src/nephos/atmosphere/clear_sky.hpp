@@ -15,6 +15,10 @@ namespace nephos::atmosphere {
 /// (1/mu near the zenith, ~38 at the horizon).
 double air_mass(double mu);
 
+/// The diffusivity factor: a plane-parallel layer's flux transmittance is its beam transmittance
+/// at air mass 1.66 (Elsasser 1942; Liou 2002, section 4.4).
+inline constexpr double diffusivity_air_mass = 1.66;
+
 struct ColumnGeometry {
   double view_air_mass = 1;        ///< along the line of sight from the column to the sensor
   double sun_air_mass = -1;        ///< along the Sun's path; <= 0: the Sun is below the horizon
@@ -28,6 +32,11 @@ struct ClearSkyColumn {
   std::vector<float> path_radiance;  ///< thermal emission of the air level -> sensor [W m^-2 sr^-1 um^-1]
   std::vector<float> t_solar;        ///< gas transmittance TOA -> level -> sensor (Sun path and view)
   std::vector<float> tau_rayleigh;   ///< Rayleigh optical depth above the level (vertical)
+  /// The air's thermal emission reaching the column's bottom from the whole sky, as the radiance
+  /// of an isotropic field of the same flux [W m^-2 sr^-1 um^-1]: F_down / pi, the integral of
+  /// B dt along the diffusivity air mass 1.66 (Elsasser 1942), over all the air above (the
+  /// sensor's altitude does not cut it). What a ground of emissivity e reflects: (1 - e) times it.
+  double sky_down = 0;
   double view_air_mass = 1, sun_air_mass = -1;
   bool valid() const { return !z_m.empty(); }
 };

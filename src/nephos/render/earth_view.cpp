@@ -101,6 +101,7 @@ void EarthView::build_node(std::size_t k, int j, int i) {
   const std::size_t nb = bands_.size();
   for (std::size_t b = 0; b < nb; ++b) {
     const atmosphere::ClearSkyColumn c = atmosphere::clear_sky_column(p, *bands_[b], g, lat);
+    node.sky_down[b] = static_cast<float>(c.sky_down);
     if (b == 0) {
       node.optics_z = c.z_m, node.optics.assign(c.z_m.size() * nb * optics_per_band, 0.0f);
       node.view_air_mass = static_cast<float>(c.view_air_mass), node.sun_air_mass = static_cast<float>(c.sun_air_mass);
@@ -209,14 +210,17 @@ double EarthView::condensate_g_m3(double lat, double lon, double z) const {
   return c;
 }
 
-surface::State EarthView::ground(double lat, double lon) const {
+surface::State EarthView::ground(double lat, double lon, std::array<double, optics::max_band_count>* sky_down) const {
   const Stencil s = stencil(lat, lon);
   surface::State g;
   g.share = {0, 0, 0, 0};
   g.skin_temperature_k = 0, g.wind_speed_m_s = 0;
   double al = 0, al_w = 0;
+  if (sky_down) sky_down->fill(0.0);
   for (std::size_t q = 0; q < 4; ++q) {
     if (s.w[q] == 0) continue;
+    if (sky_down)
+      for (std::size_t b = 0; b < bands_.size(); ++b) (*sky_down)[b] += s.w[q] * nodes_[s.node[q]].sky_down[b];
     const surface::State& n = nodes_[s.node[q]].ground;
     for (std::size_t k = 0; k < g.share.size(); ++k) g.share[k] += s.w[q] * n.share[k];
     g.skin_temperature_k += s.w[q] * n.skin_temperature_k, g.wind_speed_m_s += s.w[q] * n.wind_speed_m_s;

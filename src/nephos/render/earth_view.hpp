@@ -40,7 +40,10 @@ class EarthView {
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(double lat_deg, double lon_deg, double z_m) const;
   bool has_condensate() const { return has_condensate_; }
-  surface::State ground(double lat_deg, double lon_deg) const;
+  /// The ground at (lat, lon); with sky_down, also the sky's downwelling thermal radiance there
+  /// per band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).
+  surface::State ground(double lat_deg, double lon_deg,
+                        std::array<double, optics::max_band_count>* sky_down = nullptr) const;
   double ground_height_m(double lat_deg, double lon_deg) const;
   bool atmosphere() const { return atmosphere_; }
   double seconds_to_build() const { return seconds_; }
@@ -57,6 +60,7 @@ class EarthView {
     // pixel's air mass m scales them by m / m_node (exp, not pow) and they interpolate in z as
     // the exponentials they are.
     std::vector<float> optics_z, optics;
+    std::array<float, optics::max_band_count> sky_down{};  // per band, at the ground
     float view_air_mass = 1, sun_air_mass = -1;
   };
   static constexpr std::size_t optics_per_band = 4;

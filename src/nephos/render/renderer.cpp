@@ -849,7 +849,8 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
                      const CloudLengths* towards_sun, std::array<double, optics::max_band_count>& out,
                      std::array<double, optics::max_band_count>& path) {
   const double z = c.earth.ground_height_m(g.lat_deg, g.lon_deg);
-  const surface::State ground = c.earth.ground(g.lat_deg, g.lon_deg);
+  std::array<double, optics::max_band_count> sky_down{};
+  const surface::State ground = c.earth.ground(g.lat_deg, g.lon_deg, &sky_down);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(g.lat_deg, g.lon_deg, z, mu_view, mu_sun, air);
@@ -863,8 +864,10 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
       const double albedo = surface::mixed_albedo(ground, band);
       rad += (sun.direct[b] * mu_sun * (albedo + ground.share[0] * glint) + sun.sky[b] * albedo) / M_PI;
     }
-    if (band.thermal)
-      rad += surface::mixed_emissivity(ground, band) * c.tables.planck[b]->forward(ground.skin_temperature_k);
+    if (band.thermal) {  // emission, and the sky's emission reflected (Kirchhoff: reflectance 1 - e)
+      const double e = surface::mixed_emissivity(ground, band);
+      rad += e * c.tables.planck[b]->forward(ground.skin_temperature_k) + (1 - e) * sky_down[b];
+    }
     const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
     out[b] = rad * air.t_view[b] * up_share;
   }
