@@ -128,7 +128,6 @@ double air_mass(double mu) {
   return 1 / (std::max(mu, 0.0) + 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364));
 }
 
-
 ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, const ColumnGeometry& g, double lat) {
   const Profile p = below_sensor(full, g.sensor_altitude_m);
   ClearSkyColumn c;

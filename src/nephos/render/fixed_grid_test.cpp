@@ -178,8 +178,8 @@ TEST(AbiL1b, PublishedPlanckCoefficientsAreAbisBands) {
   EXPECT_TRUE(has_published_planck("G18", optics::band("lwir")));
   EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("lwir")).fk2, 1393.39, 1e-9);
   EXPECT_FALSE(has_published_planck("G18", optics::band("wv62")));
-  EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("wv62")).fk2,
-              planck_coefficients(optics::band("wv62")).fk2, 1e-12);
+  EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("wv62")).fk2, planck_coefficients(optics::band("wv62")).fk2,
+              1e-12);
 }
 
 }  // namespace
