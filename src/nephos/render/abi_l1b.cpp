@@ -207,8 +207,8 @@ PlanckCoefficients planck_coefficients(const optics::Band& b) {
 }
 
 namespace {
-// The Planck coefficients NOAA's ABI L1b files carry (fk1 [mW m^-2 sr^-1 cm^-1 per cm^-4 of
-// nu^3, i.e. c1 nu^3], fk2 [K], bc1 [K], bc2), from ABI's measured spectral responses: GOES-16
+// The Planck coefficients NOAA's ABI L1b files carry (fk1 = c1 nu^3 [mW m^-2 sr^-1 (cm^-1)^-1],
+// fk2 = c2 nu [K], bc1 [K], bc2), from ABI's measured spectral responses: GOES-16
 // bands 7-16 (OR_ABI-L1b-Rad*-M6Cnn_G16 files) and GOES-18 band 13 (M6C13_G18). The CMI ATBD
 // (Schmit & Gunshor 2021, v4) quotes band 13's.
 struct PublishedPlanck {
