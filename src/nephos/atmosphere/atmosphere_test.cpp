@@ -192,6 +192,8 @@ TEST(ClearSky, TheSkyShinesWithTheAirNearTheGround) {
   std::printf("[ measured ] 10.35 um: sky / column seen from above %.3f\n", w.sky_down / w.path_radiance.front());
   EXPECT_GT(w.sky_down, 1.05 * w.path_radiance.front());
   EXPECT_EQ(clear_sky_column(s, optics::band("vis"), {1.0, -1.0, 1e6}, 45).sky_down, 0.0);
+  // The sky is all the air above the ground, wherever the sensor is (an aircraft at 10 km).
+  EXPECT_NEAR(clear_sky_column(s, win, {diffusivity_air_mass, -1.0, 10e3}, 45).sky_down / w.sky_down, 1.0, 1e-12);
   // What the reflected sky adds at the top of the atmosphere, at nadir over a ground of
   // emissivity 0.75 (quartz sand at 8.5 um) at the air's temperature (for the docs).
   const optics::Band& ir85 = optics::band("ir85");

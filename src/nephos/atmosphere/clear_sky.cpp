@@ -99,26 +99,31 @@ double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
   return sum / 5;
 }
 
-// The sky's downwelling thermal radiance at the bottom of profile p in band b (ClearSkyColumn::
-// sky_down): per sub-band, upwards from the bottom, B(T_layer) times the drop in the diffuse
-// transmittance from the bottom to the layer's bottom and top.
-double sky_down(const Profile& p, const optics::Band& b) {
-  if (!b.thermal || p.size() < 2) return 0;
-  double total = 0;
-  for (const SubBand& s : gas_model(b).sub) {
-    std::array<double, gas_count> w{};
-    double tau = 0, t_below = 1, radiance = 0;
-    for (std::size_t k = 0; k + 1 < p.size(); ++k) {
-      const LayerOptics l = layer_optics(p, k, k + 1, s);
-      for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += l.w[gi];
-      tau += l.tau_cont;
-      const double t_here = path_transmittance(s, w, tau, diffusivity_air_mass);
-      radiance += optics::planck(s.wavelength_um, l.t_mean) * (t_below - t_here);
-      t_below = t_here;
-    }
-    total += s.weight * radiance;
+// One sub-band's share of the sky's downwelling thermal radiance at the bottom of a column
+// (ClearSkyColumn::sky_down), from its layers (bottom first) and their Planck radiances:
+// upwards, B(T_layer) times the drop in the diffuse transmittance from the bottom across it.
+double sky_down_part(const SubBand& s, const std::vector<LayerOptics>& layers, const std::vector<double>& planck) {
+  std::array<double, gas_count> w{};
+  double tau = 0, t_below = 1, radiance = 0;
+  for (std::size_t k = 0; k < layers.size(); ++k) {
+    for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += layers[k].w[gi];
+    tau += layers[k].tau_cont;
+    const double t_here = path_transmittance(s, w, tau, diffusivity_air_mass);
+    radiance += planck[k] * (t_below - t_here);
+    t_below = t_here;
   }
-  return total;
+  return s.weight * radiance;
+}
+
+// The layers of profile p in sub-band s, and their Planck radiances [W m^-2 sr^-1 um^-1] in a
+// thermal band (0 in a solar one: the air's emission is nothing there).
+void column_layers(const Profile& p, const SubBand& s, bool thermal, std::vector<LayerOptics>& layers,
+                   std::vector<double>& planck) {
+  layers.resize(p.size() - 1), planck.resize(p.size() - 1);
+  for (std::size_t k = 0; k + 1 < p.size(); ++k) {
+    layers[k] = layer_optics(p, k, k + 1, s);
+    planck[k] = thermal ? optics::planck(s.wavelength_um, layers[k].t_mean) : 0.0;
+  }
 }
 }  // namespace
 
@@ -134,7 +139,6 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
   const std::size_t nl = p.size();
   if (nl < 2) return c;
   c.view_air_mass = g.view_air_mass, c.sun_air_mass = g.sun_air_mass;
-  c.sky_down = sky_down(full, b);
   c.z_m.assign(p.z_m.begin(), p.z_m.end());
   c.t_view.assign(nl, 0.0f), c.path_radiance.assign(nl, 0.0f), c.t_solar.assign(nl, 0.0f);
   c.tau_rayleigh.resize(nl);
@@ -142,9 +146,16 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
   for (std::size_t k = 0; k < nl; ++k) c.tau_rayleigh[k] = static_cast<float>(tau_r_surface * p.p_pa[k] / 101325.0);
   const bool solar = !b.thermal || b.abi_band == 7;
   const double m_v = g.view_air_mass, m_2 = g.view_air_mass + std::max(g.sun_air_mass, 0.0);
-  std::vector<LayerOptics> layers(nl - 1);
+  // The sky above the ground is all the air, whether or not the sensor is inside it.
+  const bool whole = g.sensor_altitude_m >= full.z_m.back();
+  std::vector<LayerOptics> layers, sky_layers;
+  std::vector<double> planck, sky_planck;
   for (const SubBand& s : gas_model(b).sub) {
-    for (std::size_t k = 0; k + 1 < nl; ++k) layers[k] = layer_optics(p, k, k + 1, s);
+    column_layers(p, s, b.thermal, layers, planck);
+    if (b.thermal) {
+      if (!whole) column_layers(full, s, true, sky_layers, sky_planck);
+      c.sky_down += whole ? sky_down_part(s, layers, planck) : sky_down_part(s, sky_layers, sky_planck);
+    }
     // Downwards from the sensor (the top level): cumulative amounts, transmittance, emission.
     std::array<double, gas_count> w{};
     double tau = 0, t_above = 1, radiance = 0;
@@ -155,7 +166,7 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
       for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += l.w[gi];
       tau += l.tau_cont;
       const double t_here = path_transmittance(s, w, tau, m_v);
-      if (b.thermal) radiance += optics::planck(s.wavelength_um, l.t_mean) * (t_above - t_here);
+      if (b.thermal) radiance += planck[k] * (t_above - t_here);
       t_above = t_here;
       c.t_view[k] += static_cast<float>(s.weight * t_here);
       c.path_radiance[k] += static_cast<float>(s.weight * radiance);
