@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """nephos's top-of-atmosphere radiation against GFS's own, on the GFS grid (docs/VALIDATION.md).
 
-Renders a full disc at the weather's valid time in ABI bands 1-6 and 14, turns each pixel into
-broadband quantities and averages them onto the weather's 2.5 deg cells:
+Renders full discs in ABI bands 14 (at the weather's valid time) and 1-6 (at three instants of
+the 6-hour window GFS's fluxes average), turns each pixel into broadband quantities and averages
+them onto the weather's 2.5 deg cells:
 
   outgoing long-wave flux  F = sigma T_f^4, T_f = T_b (a + b T_b), T_b the 11.2 um brightness
                            temperature, a = 1.228, b = -1.106e-3 K^-1 (Ohring, Gruber & Ellingson
@@ -17,8 +18,12 @@ and compares them, area-weighted over the cells the sensor sees within 70 deg of
 GFS's own 6-hour means: ulwrf at nominalTop over the GOES-East disc (a geostationary sensor at
 75.2 W), and uswrf at nominalTop over the insolation of the same 6 hours on the cells lit
 throughout them, seen from a geostationary sensor under the Sun at the window's middle (GOES-East
-sees little daylight at 00 and 12 UTC). GFS's fluxes come from its radiation code (RRTMG) and its
-own clouds: a reference that owes nothing to nephos.
+sees little daylight at 00 and 12 UTC); nephos's albedo likewise is its reflected flux summed
+over 5, 3 and 1 h before the valid time over the insolation summed over them. GFS's fluxes come
+from its radiation code (RRTMG) and its own clouds: a reference that owes nothing to nephos.
+It also reports (gfs_cover_fits) how well GFS's own 6-hour and valid-time layer cloud covers
+explain the same fluxes in a least-squares fit: the most an instantaneous cloud field can be
+expected to reach against 6-hour means (docs/VALIDATION.md).
 
 Usage: PYTHONPATH=build/python scripts/validate_radiation.py WEATHER OUTDIR [--size N] [--texture N]
 Writes OUTDIR/summary.json and OUTDIR/{olr,albedo}.png (nephos left, GFS right).
@@ -138,7 +143,8 @@ def fit_correlation(target, predictors, cells, area):
 def reference_fits(w, gfs_olr, gfs_albedo, olr_cells, albedo_cells, area):
     """What GFS's own cloud cover explains of its fluxes: linear fits from the 6-hour mean layer covers
     (the fields the fluxes were averaged with) and from the covers at the valid time (all that an
-    instantaneous rendering can know), with the same surface and column predictors."""
+    instantaneous rendering can know), with the same surface and column predictors (the layers'
+    cloud-top temperatures are the valid time's in both)."""
     sigma_ts4 = STEFAN_BOLTZMANN * w.field("t", "surface") ** 4
     pwat, al = w.field("pwat", "atmosphereSingleLayer"), w.field("al", "surface")
     now, now_t = instantaneous_layer_cover(w)
@@ -235,7 +241,6 @@ def main():
         reflected, incident = reflected + f, incident + e
     with np.errstate(invalid="ignore", divide="ignore"):
         alb_grid = reflected / incident
-    lats, lons = w.latitudes, w.longitudes
     olr_grid, n_olr = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
     la, lo = np.meshgrid(lats, lons, indexing="ij")
     area = np.cos(np.radians(la))
