@@ -124,7 +124,7 @@ void print_abi_full_disc(const clouds::CloudScene& every, int step, const earth:
   render::RenderParams p;
   p.bands.clear();
   for (const auto& b : optics::bands())
-    if (b.abi_band >= 7) p.bands.push_back(b.name);
+    if (b.thermal) p.bands.push_back(b.name);
   const auto t0 = std::chrono::steady_clock::now();
   render::render(every, sensor, sun, p, &w);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

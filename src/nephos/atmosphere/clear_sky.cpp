@@ -144,7 +144,7 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
   c.tau_rayleigh.resize(nl);
   const double tau_r_surface = band_rayleigh_tau(b, 101325.0, lat);
   for (std::size_t k = 0; k < nl; ++k) c.tau_rayleigh[k] = static_cast<float>(tau_r_surface * p.p_pa[k] / 101325.0);
-  const bool solar = !b.thermal || b.abi_band == 7;
+  const bool solar = b.sunlit();
   const double m_v = g.view_air_mass, m_2 = g.view_air_mass + std::max(g.sun_air_mass, 0.0);
   // The sky above the ground is all the air, whether or not the sensor is inside it.
   const bool whole = g.sensor_altitude_m >= full.z_m.back();

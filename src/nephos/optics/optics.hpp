@@ -26,6 +26,8 @@ struct Band {
   double centre_um, lo_um, hi_um;  ///< central wavelength and band edges
   double solar_irradiance;         ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
   bool thermal;                    ///< thermal emission matters (report brightness temperature)
+  /// Sunlight matters: the reflective bands 1-6 and band 7 (3.9 um: reflected sunlight by day).
+  bool sunlit() const { return abi_band <= 7; }
 };
 /// The 16 bands of GOES-16's Advanced Baseline Imager, in band order: blue (1, 0.47 um), vis
 /// (2, 0.64), nir (3, 0.865), cirrus (4, 1.378), swir16 (5, 1.61), swir22 (6, 2.24), mwir (7,

@@ -187,7 +187,7 @@ void EarthView::air(double lat, double lon, double z, double mu_view, double mu_
     out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
     if (m_sun <= 0)
       out.t_sun[b] = 0;
-    else if (wsun > 0 && bands_[b]->abi_band <= 7)  // the Sun's path: bands with sunlight (RenderContext::solar)
+    else if (wsun > 0 && bands_[b]->sunlit())  // the Sun's path: bands with sunlight
       out.t_sun[b] = static_cast<float>(std::exp(log_sun[b] / wsun));
   }
 }

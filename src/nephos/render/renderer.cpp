@@ -575,14 +575,13 @@ struct RenderContext {
         shadow_scale[si][b] = so.tau, shadow_omega[si][b] = so.omega;
       }
     }
-    for (const auto* b : tables.bands) shadows = shadows || (params.shadows && solar(*b));
+    for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
   std::size_t band_count() const { return tables.bands.size(); }
   /// Sunlight in band b at 1 AU scaled to the Sun's distance [W m^-2 um^-1, normal to the beam].
   double solar_irradiance(std::size_t b) const { return tables.bands[b]->solar_irradiance * sun_scale; }
-  static bool solar(const optics::Band& b) { return b.abi_band <= 7; }
 };
 
 // A cloud element's microphysics: phase, water content [g m^-3] and effective radius [um].
@@ -691,7 +690,7 @@ Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, c
   Sunlight s;
   if (mu_sun <= 0) return s;
   for (std::size_t b = 0; b < c.band_count(); ++b) {
-    if (!RenderContext::solar(*c.tables.bands[b])) continue;
+    if (!c.tables.bands[b]->sunlit()) continue;
     const double e0 = c.solar_irradiance(b) * air.t_sun[b];
     const double direct = std::exp(-air.tau_rayleigh[b] / mu_sun);
     s.direct[b] = e0 * direct;
@@ -774,11 +773,11 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
     const LayerOptics lo =
         cloud_layer(p.extinction_per_m * hit.depth_m * mu_view, p.single_scattering_albedo, asym, mu_view);
     double rad = 0;
-    if (RenderContext::solar(band) && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
+    if (band.sunlit() && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
       rad += lo.reflectance / M_PI *
              (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
     if (band.thermal) rad += lo.emissivity * c.tables.planck[b]->forward(t_cloud);
-    const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
+    const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
     // Over the pixel: the cloud's share of it, and the rest seen unobstructed.
     lb[b] = static_cast<float>(cover * rad * air.t_view[b] * up_share);
     lb[nb + b] = static_cast<float>(1 - cover * (1 - lo.transmittance));
@@ -837,7 +836,7 @@ void path_radiance(const RenderContext& c, const AirSample& air, double mu_view,
                    std::array<double, optics::max_band_count>& out) {
   for (std::size_t b = 0; b < c.band_count(); ++b) {
     out[b] = air.path[b];
-    if (RenderContext::solar(*c.tables.bands[b]))
+    if (c.tables.bands[b]->sunlit())
       out[b] += rayleigh_path(c.solar_irradiance(b), air.tau_rayleigh[b], mu_view, mu_sun, cos_scatter) *
                 std::sqrt(air.t_view[b] * air.t_sun[b]);
   }
@@ -860,7 +859,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   for (std::size_t b = 0; b < c.band_count(); ++b) {
     const optics::Band& band = *c.tables.bands[b];
     double rad = 0;
-    if (RenderContext::solar(band) && mu_sun > 0) {
+    if (band.sunlit() && mu_sun > 0) {
       const double albedo = surface::mixed_albedo(ground, band);
       rad += (sun.direct[b] * mu_sun * (albedo + ground.share[0] * glint) + sun.sky[b] * albedo) / M_PI;
     }
@@ -868,7 +867,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
       const double e = surface::mixed_emissivity(ground, band);
       rad += e * c.tables.planck[b]->forward(ground.skin_temperature_k) + (1 - e) * sky_down[b];
     }
-    const double up_share = RenderContext::solar(band) ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
+    const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
     out[b] = rad * air.t_view[b] * up_share;
   }
 }
@@ -908,7 +907,7 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
     }
   }
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!RenderContext::solar(*c.tables.bands[b]) || mu_sun <= -0.1) continue;
+    if (!c.tables.bands[b]->sunlit() || mu_sun <= -0.1) continue;
     const double e0 =
         c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
     out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
