@@ -18,12 +18,12 @@ std::vector<weather::CloudType> SceneRequest::all_cloud_types() {
 }
 
 namespace {
-// A view's band names with "all" spelled out (checked by RenderParams::set_bands).
+// A view's bands by their own names, "all" spelled out (RenderParams::set_bands: ValueError
+// naming "bands" for an unknown or repeated one).
 std::vector<std::string> band_names(const std::vector<std::string>& bands) {
-  if (bands.size() != 1 || bands[0] != "all") return bands;
-  std::vector<std::string> all;
-  for (const auto& b : optics::bands()) all.push_back(b.name);
-  return all;
+  RenderParams rp;
+  rp.set_bands(bands, "bands");
+  return rp.bands;
 }
 }  // namespace
 
@@ -86,12 +86,12 @@ std::vector<ViewRequest> frame_views(const RenderRequest& request) {
   if (request.format != "abi-l1b") throw ValueError("'" + request.format + "': netcdf or abi-l1b", {.key = "format"});
   if (request.view.sensor.rfind("abi:", 0) != 0)
     throw ValueError("abi-l1b needs an ABI sensor (abi:east, abi:west or abi:LON)", {.key = "format"});
-  render_params(request.view, 0);  // the bands checked first
+  const std::vector<std::string> bands = band_names(request.view.bands);
   std::vector<ViewRequest> views;
   for (double res : {0.5, 1.0, 2.0}) {
     ViewRequest v = request.view;
     v.bands.clear();
-    for (const auto& b : band_names(request.view.bands))
+    for (const auto& b : bands)
       if (abi_native_resolution_km(optics::band(b).abi_band) == res) v.bands.push_back(b);
     v.abi_resolution_km = res;
     if (!v.bands.empty()) views.push_back(std::move(v));
