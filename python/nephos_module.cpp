@@ -630,8 +630,7 @@ void def_weather_and_scene(py::module_& m) {
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
            "'abi:west', 'abi:LON' (the GOES-R fixed grid: sector `scene` 'full', 'conus' or 'meso:LAT,LON', coarsened "
-           "by "
-           "abi_step; size is the sector's; returned as an xarray.Dataset with x/y scan angles and the CF grid "
+           "by abi_step; size is the sector's; returned as an xarray.Dataset with x/y scan angles and the CF grid "
            "mapping goes_imager_projection, unless as_dict) or a camera TOML file; time: ISO 8601 UTC (default: the "
            "weather's valid time).");
 }

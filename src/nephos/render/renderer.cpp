@@ -317,7 +317,7 @@ void march_steps(const clouds::CloudShell& shell, const earth::Vec3& o, int step
 // cone sees it (CloudShell::classify_filtered, footprint spread t at distance t): per ray the
 // first step inside (u > 0, the filtered cloud function above the threshold), the largest u and
 // its step, the expected length of cloud along the path (the trapezoid rule over ds coverage(u))
-// and the chance of meeting any (clouds::path_chance: the coverage ray's cloud fraction).
+// and the chance of meeting any (clouds::PathCoverage: the cone's cloud fraction).
 void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o, int steps, double spread,
                           std::size_t nr, MarchScratch& w) {
   const double ox = o.x, oy = o.y, oz = o.z, u_min = shell.u_min();

@@ -101,7 +101,8 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
 /// (CloudShell::classify_filtered): the first surface is where the filtered cloud function
 /// crosses the threshold, or where it comes nearest (a partial hit; below roulette_coverage, kept
 /// with probability coverage / roulette_coverage, at that coverage);
-/// coverage is CloudShell::coverage() of the largest u met, depth the expected length of cloud over it.
+/// coverage is the chance that the path meets cloud (clouds::PathCoverage), depth the expected
+/// length of cloud over it.
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
                  std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread = 0);
 

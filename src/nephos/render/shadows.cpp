@@ -51,11 +51,13 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   }
   // The march: every live ray's step midpoints, classified together, step by step.
   const std::size_t nl = live.size();
-  pts.resize(nl), vals.resize(nl), fp.resize(nl);
-  for (std::size_t j = 0; j < nl; ++j) fp[j] = footprint_m ? footprint_m[live[j]] : 0.0;
+  pts.resize(nl), vals.resize(nl);
   if (footprint_m) {
-    paths.resize(nl);
-    for (std::size_t j = 0; j < nl; ++j) paths[j] = clouds::PathCoverage(shell, fp[j], t1[live[j]] - t0[live[j]]);
+    fp.resize(nl), paths.resize(nl);
+    for (std::size_t j = 0; j < nl; ++j) {
+      fp[j] = footprint_m[live[j]];
+      paths[j] = clouds::PathCoverage(shell, fp[j], t1[live[j]] - t0[live[j]]);
+    }
   }
   const double thr = shell.threshold();
   for (int k = 0; k < steps; ++k) {
