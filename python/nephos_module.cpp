@@ -747,6 +747,15 @@ PYBIND11_MODULE(nephos, m) {
   m.def(
       "set_verbose", [](bool on) { init_logging(on ? Verbosity::normal : Verbosity::quiet); }, py::arg("on") = true,
       "Log lines (and warnings) on stderr, as the command line prints them.");
+  m.def("cloud_fraction",
+        py::vectorize([](double relative_humidity, double condensate_kg_kg, double temperature_k, double pressure_pa) {
+          return weather::cloud_fraction(relative_humidity, condensate_kg_kg, temperature_k, pressure_pa,
+                                         weather::CloudFractionParams{});
+        }),
+        py::arg("relative_humidity"), py::arg("condensate_kg_kg"), py::arg("temperature_k"), py::arg("pressure_pa"),
+        "The cloud fraction the masks diagnose at each level (GFS radiation's Xu & Randall 1996, docs/weather.md), "
+        "element-wise over numpy arrays: relative humidity [fraction], condensate [kg kg-1] (NaN: none in the file, "
+        "the humidity ramp instead), temperature [K], pressure [Pa].");
   m.def("write_abi_l1b", &write_abi_l1b, py::arg("dataset"), py::arg("dir"),
         "Writes an ABI view of Scene.render (an xarray.Dataset) as ABI L1b files, one per band, into `dir` (as "
         "`nephos render --format abi-l1b`, on the view's grid); returns their paths.");

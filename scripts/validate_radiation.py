@@ -96,22 +96,14 @@ def grid_mean(values, lat, lon, lats, lons):
 
 def instantaneous_layer_cover(w):
     """GFS's low, middle and high cloud cover at the valid time, diagnosed as GFS's radiation does
-    from the instantaneous profiles: Xu & Randall (1996) per level, c = RH^0.25 (1 - exp(-2000 q_c /
-    ((1 - RH) q_s)^0.25)), c = 0 where q_c <= 1e-6 p / 1000 hPa (q_s over water above 0 C, ice below
-    -20 C, Alduchov & Eskridge 1996); maximum-random overlap within each layer; the layers' tops at
-    650 and 400 hPa equatorward of 45 deg, rising linearly to 750 and 500 hPa at the poles (GFS's
-    cloud domains). Returns ({layer: cover}, {layer: temperature at its highest cloudy level [K]})."""
+    from the instantaneous profiles: Xu & Randall (1996) per level (nephos.cloud_fraction, the
+    masks' own diagnosis; no cloud where the file has no condensate); maximum-random overlap
+    within each layer; the layers' tops at 650 and 400 hPa equatorward of 45 deg, rising linearly
+    to 750 and 500 hPa at the poles (GFS's cloud domains). Returns ({layer: cover}, {layer:
+    temperature at its highest cloudy level [K]})."""
     p = w.pressure_levels_pa
-    t, rh, qc = w.level_field("t"), np.clip(w.level_field("r"), 0, 1), w.level_field("clwmr")
-    tc = t - 273.15
-    e_w = 610.94 * np.exp(17.625 * tc / (tc + 243.04))
-    e_i = 611.21 * np.exp(22.587 * tc / (tc + 273.86))
-    mix = np.clip(tc / 20 + 1, 0, 1)
-    es = np.minimum(mix * e_w + (1 - mix) * e_i, 0.5 * p[:, None, None])
-    qs = 0.622 * es / (p[:, None, None] - 0.378 * es)
-    denom = np.clip(np.sqrt(np.sqrt(np.maximum(1 - rh, 1e-10) * qs)), 1e-4, 1)
-    cf = rh ** 0.25 * (1 - np.exp(-np.minimum(2000 * qc / denom, 50)))
-    cf = np.where(np.isfinite(cf) & (qc > 1e-6 * p[:, None, None] / 1e5), np.clip(cf, 0, 1), 0.0)
+    t, qc = w.level_field("t"), w.level_field("clwmr")
+    cf = nephos.cloud_fraction(w.level_field("r"), np.nan_to_num(qc, nan=0.0), t, p[:, None, None])
     lat = np.abs(w.latitudes)[:, None] * np.ones((1, len(w.longitudes)))
     rise = np.clip(4 * np.radians(lat) / np.pi - 1, 0, 1)
     tops = {"low": 65000 + 10000 * rise, "middle": 40000 + 10000 * rise, "high": np.zeros_like(rise)}
