@@ -167,21 +167,9 @@ class CloudShell {
   /// sub-pixel detail, sigma Z, lifts CF above the threshold, P(Z > -u), Z the fractal sum
   /// standardised (its distribution sampled as for the calibration, tabulated): the fractal sum's
   /// own bounded, skewed shape, not a normal one. 0 at u_min() and below, 1 at u_max() and above.
-  double coverage(double u) const {
-    const double x = (u - u_min_) * coverage_scale_;
-    if (!(x > 0)) return 0;
-    if (x >= coverage_intervals) return 1;
-    const auto i = static_cast<std::size_t>(x);
-    return coverage_[i] + (x - static_cast<double>(i)) * (coverage_[i + 1] - coverage_[i]);
-  }
+  double coverage(double u) const { return u_table(coverage_, u, 1.0); }
   /// log(1 - coverage(u)), tabulated likewise (-27.6, log 1e-12, where coverage is 1).
-  double log_clear(double u) const {
-    const double x = (u - u_min_) * coverage_scale_;
-    if (!(x > 0)) return 0;
-    if (x >= coverage_intervals) return log_clear_.back();
-    const auto i = static_cast<std::size_t>(x);
-    return log_clear_[i] + (x - static_cast<double>(i)) * (log_clear_[i + 1] - log_clear_[i]);
-  }
+  double log_clear(double u) const { return u_table(log_clear_, u, log_clear_.back()); }
   /// Equal-probability nodes of Z (its quantiles at (k + 1/2) / 4): the expectation over the
   /// sub-pixel detail shared along a path (PathCoverage).
   static constexpr int z_node_count = 4;
@@ -319,6 +307,15 @@ class CloudShell {
   }
   static constexpr int mask_term_intervals = 1024;
   static constexpr int coverage_intervals = 1024;
+  /// Table t (coverage_'s nodes in u) at u, linear between nodes: 0 at u_min() and below,
+  /// `beyond` at u_max() and above.
+  double u_table(const std::vector<double>& t, double u, double beyond) const {
+    const double x = (u - u_min_) * coverage_scale_;
+    if (!(x > 0)) return 0;
+    if (x >= coverage_intervals) return beyond;
+    const auto i = static_cast<std::size_t>(x);
+    return t[i] + (x - static_cast<double>(i)) * (t[i + 1] - t[i]);
+  }
   std::vector<double> coverage_;  ///< coverage() at u_min + k (u_max - u_min) / 1024
   double u_min_ = -4, u_max_ = 4;
   double coverage_scale_ = coverage_intervals / 8.0;  ///< table nodes per unit of u
