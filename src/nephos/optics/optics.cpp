@@ -63,30 +63,37 @@ const std::vector<Band>& bands() {
   // "esun" that GOES-16 L1b files carry, so that reflectances computed from nephos's radiances
   // as from ABI's (pi L d^2 / esun) agree. Bands 7-16: the ASTM G173 spectrum (band 7) and the
   // 5772 K Sun beyond 4 um, negligible beside the emission there (0.01-0.25 W m^-2 um^-1).
-  static const std::vector<Band> b{
-      {"blue", "GOES-16 ABI band 1 (blue)", 1, 0.47, 0.45, 0.49, 2017.1648, false},
-      {"vis", "GOES-16 ABI band 2 (red)", 2, 0.64, 0.59, 0.69, 1631.3351, false},
-      {"nir", "GOES-16 ABI band 3 (veggie)", 3, 0.865, 0.846, 0.885, 957.0699, false},
-      {"cirrus", "GOES-16 ABI band 4 (cirrus)", 4, 1.378, 1.371, 1.386, 360.90176, false},
-      {"swir16", "GOES-16 ABI band 5 (snow/ice)", 5, 1.61, 1.58, 1.64, 242.54037, false},
-      {"swir22", "GOES-16 ABI band 6 (cloud particle size)", 6, 2.24, 2.225, 2.275, 76.8999, false},
-      {"mwir", "GOES-16 ABI band 7 (shortwave window)", 7, 3.9, 3.8, 4.0, solar_spectrum_irradiance(3.8, 4.0), true},
-      {"wv62", "GOES-16 ABI band 8 (upper-level water vapour)", 8, 6.19, 5.77, 6.6,
-       solar_spectrum_irradiance(5.77, 6.6), true},
-      {"wv69", "GOES-16 ABI band 9 (mid-level water vapour)", 9, 6.95, 6.75, 7.15,
-       solar_spectrum_irradiance(6.75, 7.15), true},
-      {"wv73", "GOES-16 ABI band 10 (lower-level water vapour)", 10, 7.34, 7.24, 7.44,
-       solar_spectrum_irradiance(7.24, 7.44), true},
-      {"ir85", "GOES-16 ABI band 11 (cloud-top phase)", 11, 8.5, 8.3, 8.7, solar_spectrum_irradiance(8.3, 8.7), true},
-      {"o3", "GOES-16 ABI band 12 (ozone)", 12, 9.61, 9.42, 9.8, solar_spectrum_irradiance(9.42, 9.8), true},
-      {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 13, 10.35, 10.1, 10.6,
-       solar_spectrum_irradiance(10.1, 10.6), true},
-      {"lwir11", "GOES-16 ABI band 14 (long-wave window)", 14, 11.2, 10.8, 11.6, solar_spectrum_irradiance(10.8, 11.6),
-       true},
-      {"lwir12", "GOES-16 ABI band 15 (dirty long-wave window)", 15, 12.3, 11.8, 12.8,
-       solar_spectrum_irradiance(11.8, 12.8), true},
-      {"co2", "GOES-16 ABI band 16 (CO2 long-wave)", 16, 13.3, 13.0, 13.6, solar_spectrum_irradiance(13.0, 13.6), true},
-  };
+  static const std::vector<Band> b = [] {
+    std::vector<Band> v{
+        {"blue", "GOES-16 ABI band 1 (blue)", 1, 0.47, 0.45, 0.49, 2017.1648, false},
+        {"vis", "GOES-16 ABI band 2 (red)", 2, 0.64, 0.59, 0.69, 1631.3351, false},
+        {"nir", "GOES-16 ABI band 3 (veggie)", 3, 0.865, 0.846, 0.885, 957.0699, false},
+        {"cirrus", "GOES-16 ABI band 4 (cirrus)", 4, 1.378, 1.371, 1.386, 360.90176, false},
+        {"swir16", "GOES-16 ABI band 5 (snow/ice)", 5, 1.61, 1.58, 1.64, 242.54037, false},
+        {"swir22", "GOES-16 ABI band 6 (cloud particle size)", 6, 2.24, 2.225, 2.275, 76.8999, false},
+        {"mwir", "GOES-16 ABI band 7 (shortwave window)", 7, 3.9, 3.8, 4.0, solar_spectrum_irradiance(3.8, 4.0), true},
+        {"wv62", "GOES-16 ABI band 8 (upper-level water vapour)", 8, 6.19, 5.77, 6.6,
+         solar_spectrum_irradiance(5.77, 6.6), true},
+        {"wv69", "GOES-16 ABI band 9 (mid-level water vapour)", 9, 6.95, 6.75, 7.15,
+         solar_spectrum_irradiance(6.75, 7.15), true},
+        {"wv73", "GOES-16 ABI band 10 (lower-level water vapour)", 10, 7.34, 7.24, 7.44,
+         solar_spectrum_irradiance(7.24, 7.44), true},
+        {"ir85", "GOES-16 ABI band 11 (cloud-top phase)", 11, 8.5, 8.3, 8.7, solar_spectrum_irradiance(8.3, 8.7), true},
+        {"o3", "GOES-16 ABI band 12 (ozone)", 12, 9.61, 9.42, 9.8, solar_spectrum_irradiance(9.42, 9.8), true},
+        {"lwir", "GOES-16 ABI band 13 (clean long-wave window)", 13, 10.35, 10.1, 10.6,
+         solar_spectrum_irradiance(10.1, 10.6), true},
+        {"lwir11", "GOES-16 ABI band 14 (long-wave window)", 14, 11.2, 10.8, 11.6,
+         solar_spectrum_irradiance(10.8, 11.6), true},
+        {"lwir12", "GOES-16 ABI band 15 (dirty long-wave window)", 15, 12.3, 11.8, 12.8,
+         solar_spectrum_irradiance(11.8, 12.8), true},
+        {"co2", "GOES-16 ABI band 16 (CO2 long-wave)", 16, 13.3, 13.0, 13.6, solar_spectrum_irradiance(13.0, 13.6),
+         true},
+    };
+    for (Band& band : v)
+      band.k_water = refractive_index(Phase::water, band.centre_um).k,
+      band.k_ice = refractive_index(Phase::ice, band.centre_um).k;
+    return v;
+  }();
   return b;
 }
 
@@ -169,7 +176,7 @@ SlabOptics similarity_scaled(double tau, double omega, double g) {
   return {f * tau, (1 - g) * omega / f};
 }
 
-double imaginary_index(Phase phase, const Band& b) { return refractive_index(phase, b.centre_um).k; }
+double imaginary_index(Phase phase, const Band& b) { return phase == Phase::water ? b.k_water : b.k_ice; }
 
 OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_e_um, const Band& b) {
   if (!(water_content_g_m3 >= 0) || !(r_e_um > 0))

@@ -26,6 +26,9 @@ struct Band {
   double centre_um, lo_um, hi_um;  ///< central wavelength and band edges
   double solar_irradiance;         ///< top-of-atmosphere band-mean solar irradiance at 1 AU [W m^-2 um^-1]
   bool thermal;                    ///< thermal emission matters (report brightness temperature)
+  /// The imaginary refractive indices of water and ice at the centre (refractive_index(); kept
+  /// with the band since cloud_optics() needs them per pixel and band).
+  double k_water = 0, k_ice = 0;
   /// Sunlight matters: the reflective bands 1-6 and band 7 (3.9 um: reflected sunlight by day).
   bool sunlit() const { return abi_band <= 7; }
 };

@@ -118,8 +118,8 @@ void EarthView::build_node(std::size_t k, int j, int i) {
   }
 }
 
-EarthView::Stencil EarthView::stencil(double lat, double lon) const {
-  Stencil s;
+EarthView::Place EarthView::place(double lat, double lon) const {
+  Place s;
   if (!weather_) {
     s.w = {1, 0, 0, 0};
     return s;
@@ -145,11 +145,10 @@ EarthView::Stencil EarthView::stencil(double lat, double lon) const {
   return s;
 }
 
-void EarthView::air(double lat, double lon, double z, double mu_view, double mu_sun, AirSample& out) const {
+void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out) const {
   const std::size_t nb = bands_.size();
   for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
   if (!atmosphere_) return;
-  const Stencil s = stencil(lat, lon);
   const double m_view = atmosphere::air_mass(std::max(mu_view, 0.02));
   const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
   // Per band, the nodes' optical depths carried to the pixel's air masses (exact for a grey
@@ -192,17 +191,15 @@ void EarthView::air(double lat, double lon, double z, double mu_view, double mu_
   }
 }
 
-double EarthView::temperature_k(double lat, double lon, double z) const {
-  const Stencil s = stencil(lat, lon);
+double EarthView::temperature_k(const Place& s, double z) const {
   double t = 0, w = 0;
   for (std::size_t q = 0; q < 4; ++q)
     if (s.w[q] > 0) t += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].t, z), w += s.w[q];
   return t / w;
 }
 
-double EarthView::condensate_g_m3(double lat, double lon, double z) const {
+double EarthView::condensate_g_m3(const Place& s, double z) const {
   if (!has_condensate_) return 0;
-  const Stencil s = stencil(lat, lon);
   double c = 0;
   for (std::size_t q = 0; q < 4; ++q)
     if (s.w[q] > 0 && !nodes_[s.node[q]].condensate.empty())
@@ -210,8 +207,7 @@ double EarthView::condensate_g_m3(double lat, double lon, double z) const {
   return c;
 }
 
-surface::State EarthView::ground(double lat, double lon, std::array<double, optics::max_band_count>* sky_down) const {
-  const Stencil s = stencil(lat, lon);
+surface::State EarthView::ground(const Place& s, std::array<double, optics::max_band_count>* sky_down) const {
   surface::State g;
   g.share = {0, 0, 0, 0};
   g.skin_temperature_k = 0, g.wind_speed_m_s = 0;
@@ -230,8 +226,7 @@ surface::State EarthView::ground(double lat, double lon, std::array<double, opti
   return g;
 }
 
-double EarthView::ground_height_m(double lat, double lon) const {
-  const Stencil s = stencil(lat, lon);
+double EarthView::ground_height_m(const Place& s) const {
   double h = 0;
   for (std::size_t q = 0; q < 4; ++q) h += s.w[q] * nodes_[s.node[q]].ground_height_m;
   return h;

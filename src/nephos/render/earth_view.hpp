@@ -33,18 +33,25 @@ class EarthView {
   EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
             const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k = 288.15);
 
-  /// The air between altitude z [m] at (lat, lon) [deg] and the sensor, for a line of sight of
-  /// cos zenith mu_view and the Sun at cos zenith mu_sun there.
-  void air(double lat_deg, double lon_deg, double z_m, double mu_view, double mu_sun, AirSample& out) const;
-  double temperature_k(double lat_deg, double lon_deg, double z_m) const;
+  /// Where a point lies among the weather's nodes: the four around it and their bilinear
+  /// weights, found once for all the lookups below at that point.
+  struct Place {
+    std::array<std::size_t, 4> node{};
+    std::array<double, 4> w{};
+  };
+  Place place(double lat_deg, double lon_deg) const;
+
+  /// The air between altitude z [m] at a place and the sensor, for a line of sight of cos
+  /// zenith mu_view and the Sun at cos zenith mu_sun there.
+  void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out) const;
+  double temperature_k(const Place& at, double z_m) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
-  double condensate_g_m3(double lat_deg, double lon_deg, double z_m) const;
+  double condensate_g_m3(const Place& at, double z_m) const;
   bool has_condensate() const { return has_condensate_; }
-  /// The ground at (lat, lon); with sky_down, also the sky's downwelling thermal radiance there
-  /// per band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).
-  surface::State ground(double lat_deg, double lon_deg,
-                        std::array<double, optics::max_band_count>* sky_down = nullptr) const;
-  double ground_height_m(double lat_deg, double lon_deg) const;
+  /// The ground at a place; with sky_down, also the sky's downwelling thermal radiance there per
+  /// band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).
+  surface::State ground(const Place& at, std::array<double, optics::max_band_count>* sky_down = nullptr) const;
+  double ground_height_m(const Place& at) const;
   bool atmosphere() const { return atmosphere_; }
   double seconds_to_build() const { return seconds_; }
 
@@ -64,11 +71,6 @@ class EarthView {
     float view_air_mass = 1, sun_air_mass = -1;
   };
   static constexpr std::size_t optics_per_band = 4;
-  struct Stencil {
-    std::array<std::size_t, 4> node{};
-    std::array<double, 4> w{};
-  };
-  Stencil stencil(double lat_deg, double lon_deg) const;
   void build_node(std::size_t n, int j, int i);
 
   const weather::WeatherGrid* weather_;

@@ -76,11 +76,11 @@ struct Layer {  // one cloud type's contribution to one pixel; its per-band valu
   float altitude = 0, tau_vis = 0;
   float coverage = 1;  // the share of the pixel it covers (ShellHit::coverage)
 };
-// A layer's radiance [W m^-2 sr^-1 um^-1] and direct transmittance in each of a render's nb
-// bands: radiance[0..nb) then transmittance[0..nb), 8 nb bytes per layer (as many bands as
-// asked for, up to optics::max_band_count). Read only where the layer's t is finite, so never
-// reset.
-constexpr std::size_t layer_band_floats(std::size_t nb) { return 2 * nb; }
+// A layer's radiance [W m^-2 sr^-1 um^-1], direct transmittance and the air's radiance between
+// it and the sensor [W m^-2 sr^-1 um^-1] in each of a render's nb bands: radiance[0..nb), then
+// transmittance[0..nb), then path[0..nb), 12 nb bytes per layer (as many bands as asked for, up
+// to optics::max_band_count). Read only where the layer's t is finite, so never reset.
+constexpr std::size_t layer_band_floats(std::size_t nb) { return 3 * nb; }
 
 }  // namespace
 
@@ -544,6 +544,7 @@ struct RenderContext {
   const EarthView& earth;
   earth::Vec3 sun_dir;
   double sun_scale = 1;                              ///< (1 AU / Sun distance)^2
+  const optics::Band& vis = optics::band("vis");     ///< the band of the reported optical depth
   std::vector<optics::OpticalProperties> vis_props;  ///< [type], the types' own, for the optical depth
   std::vector<double> asymmetry;                     ///< [type], the types' own
   /// [type][band] the similarity-scaled extinction factor (1 - omega g) of the type's own optics
@@ -565,8 +566,7 @@ struct RenderContext {
     for (std::size_t si = 0; si < ns; ++si) {
       const clouds::CloudTypeParams& cp = scene.shells[si].params();
       asymmetry[si] = cp.asymmetry;
-      vis_props[si] =
-          optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, optics::band("vis"));
+      vis_props[si] = optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, vis);
       for (std::size_t b = 0; b < tables.bands.size(); ++b) {
         const double omega =
             optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *tables.bands[b])
@@ -596,7 +596,7 @@ struct Microphysics {
 // Johnson & Spice 1994: r_e = (3 W / (4 pi rho_w k N))^(1/3), N = 100 cm^-3 and k = 0.8 over
 // sea, 300 cm^-3 and 0.67 over land) and from the temperature for ice (Ou & Liou 1995:
 // D_e = 326.3 + 12.42 T + 0.197 T^2 + 0.0012 T^3 um, T in C, -60..-20 C). Else the type's own.
-Microphysics microphysics(const RenderContext& c, std::size_t si, double lat, double lon, double alt,
+Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthView::Place& at, double alt,
                           double thickness_m, const earth::Vec3& p, double t_cloud) {
   const clouds::CloudTypeParams& cp = c.scene.shells[si].params();
   Microphysics m{cp.phase, cp.water_content_g_m3, cp.effective_radius_um};
@@ -606,11 +606,11 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, double lat, do
     // The condensate's mean over the cloud's vertical extent below its top (a top's own value
     // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops).
     double q = 0;
-    for (int k = 0; k < 5; ++k) q += c.earth.condensate_g_m3(lat, lon, alt - thickness_m * (k + 0.5) / 5) / 5;
+    for (int k = 0; k < 5; ++k) q += c.earth.condensate_g_m3(at, alt - thickness_m * (k + 0.5) / 5) / 5;
     if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / std::max(c.scene.shells[si].mask_at(p), 0.1), 0.01, 3.0);
   }
   if (m.phase == optics::Phase::water) {
-    const double land = c.earth.ground(lat, lon).share[1];
+    const double land = c.earth.ground(at).share[1];
     const double n_m3 = (100 + 200 * land) * 1e6, k = 0.8 - 0.13 * land;
     const double r_m = std::cbrt(3 * m.water_content_g_m3 * 1e-3 / (4 * M_PI * 1000 * k * n_m3));
     m.effective_radius_um = std::clamp(r_m * 1e6, 4.0, 25.0);
@@ -621,12 +621,12 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, double lat, do
   return m;
 }
 
-// The per-type layers of one band of image rows [y0, y1), and each row's distance to the Earth.
-// The image is rendered in bands of rows whose per-type layers (12 + 8 nb B per pixel and type:
-// 36 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited band by
-// band: each type's pass still sweeps many rows with its textures in cache, and the image holds
-// only its outputs (~37 B per pixel for three spectral bands, not ~180 with every type's layers
-// of the whole image: a 10848^2 full disc in 4 GiB, not 21). No pixel's result depends on the
+// The per-type layers of one band of image rows [y0, y1), and each row's rays and distance to
+// the Earth. The image is rendered in bands of rows whose per-type layers (16 + 12 nb B per pixel
+// and type: 52 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
+// band by band: each type's pass still sweeps many rows with its textures in cache, and the image
+// holds only its outputs (~37 B per pixel for three spectral bands, not ~250 with every type's
+// layers of the whole image: a 10848^2 full disc in 4 GiB, not 27). No pixel's result depends on the
 // band size: the bands change only the order of independent work (tested bit for bit).
 struct RowBand {
   int rows = 1;                    ///< rows per band
@@ -635,6 +635,10 @@ struct RowBand {
   std::vector<Layer> layers;       ///< [row pixel][type]
   std::vector<float> layer_bands;  ///< [row pixel][type][layer_band_floats]
   std::vector<float> t_earth;      ///< to the Earth's surface [m]; inf: space
+  /// Each pixel's ray direction, found once per band for every pass (an ABI fixed-grid ray
+  /// costs two geodetic conversions, ~0.2 us: one sixth of a 2 km full disc's time if each of
+  /// the six passes found it again).
+  std::vector<earth::Vec3> dirs;
 
   explicit RowBand(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
     const int w = c.sensor.width;
@@ -646,22 +650,25 @@ struct RowBand {
     layers.resize(static_cast<std::size_t>(rows) * w * ns);
     layer_bands.resize(layers.size() * lbf);
     t_earth.resize(static_cast<std::size_t>(rows) * w);
+    dirs.resize(t_earth.size());
   }
   Layer& layer(std::size_t bpx, std::size_t si) { return layers[bpx * ns + si]; }
   float* bands(std::size_t bpx, std::size_t si) { return &layer_bands[(bpx * ns + si) * lbf]; }
+  /// The ray directions of image row y (one of the band's).
+  const earth::Vec3* row_dirs(int y, int w) const { return &dirs[static_cast<std::size_t>(y - y0) * w]; }
 };
 
-// Starts band rows [y0, y1): layers cleared, each pixel's distance to the Earth.
+// Starts band rows [y0, y1): layers cleared, each pixel's ray and distance to the Earth.
 void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
   const int w = c.sensor.width;
   rb.y0 = y0, rb.y1 = y1;
   std::fill(rb.layers.begin(), rb.layers.end(), Layer{});
 #pragma omp parallel for schedule(static)
   for (int y = y0; y < y1; ++y) {
-    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
-    c.sub.row_rays(c.sensor, y, dirs.data());
+    earth::Vec3* dirs = &rb.dirs[static_cast<std::size_t>(y - y0) * w];
+    c.sub.row_rays(c.sensor, y, dirs);
     for (int x = 0; x < w; ++x) {
-      const auto e = earth::ray_sphere(c.sensor.position, dirs[static_cast<std::size_t>(x)], earth::radius_m);
+      const auto e = earth::ray_sphere(c.sensor.position, dirs[x], earth::radius_m);
       rb.t_earth[static_cast<std::size_t>(y - y0) * w + x] =
           e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
     }
@@ -733,6 +740,18 @@ void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::s
   }
 }
 
+// The air's own radiance per band between a point at altitude z and the sensor [W m^-2 sr^-1
+// um^-1]: its thermal emission and the sunlight it scatters (Rayleigh, single scattering).
+void path_radiance(const RenderContext& c, const AirSample& air, double mu_view, double mu_sun, double cos_scatter,
+                   std::array<double, optics::max_band_count>& out) {
+  for (std::size_t b = 0; b < c.band_count(); ++b) {
+    out[b] = air.path[b];
+    if (c.tables.bands[b]->sunlit())
+      out[b] += rayleigh_path(c.solar_irradiance(b), air.tau_rayleigh[b], mu_view, mu_sun, cos_scatter) *
+                std::sqrt(air.t_view[b] * air.t_sun[b]);
+  }
+}
+
 // One cloud type's layer at a hit: distance, altitude, visible optical depth, and per band the
 // radiance leaving it that reaches the sensor through the clear air above, and the transmittance
 // of what lies behind (a plane-parallel slab of the same vertical optical depth).
@@ -745,27 +764,29 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const earth::Vec3 up = hit.position / r;
   L.altitude = static_cast<float>(r - earth::radius_m);
   const earth::Geodetic g = earth::geodetic(hit.position);
-  const double mu_view = std::clamp(-glm::dot(up, dir), 0.05, 1.0);
-  const double mu_sun = glm::dot(c.sun_dir, up);  // sine of the Sun's elevation here
+  const double mu_view = std::clamp(-glm::dot(up, dir), 0.05, 1.0);  // the plane-parallel layer's
+  const double mu_air = std::max(0.02, -glm::dot(up, dir));          // the air's path to the sensor
+  const double mu_sun = glm::dot(c.sun_dir, up);                     // sine of the Sun's elevation here
   const double mu_normal = glm::dot(hit.normal, c.sun_dir);
-  const double t_cloud = c.earth.temperature_k(g.lat_deg, g.lon_deg, L.altitude);
-  const Microphysics m =
-      microphysics(c, si, g.lat_deg, g.lon_deg, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
+  const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
+  const double t_cloud = c.earth.temperature_k(at, L.altitude);
+  const Microphysics m = microphysics(c, si, at, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
   const double cover = hit.coverage;
   L.coverage = static_cast<float>(cover);
   L.tau_vis = static_cast<float>(
-      cover *
-      optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, optics::band("vis")).extinction_per_m *
+      cover * optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, c.vis).extinction_per_m *
       hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
   // phase, that phase's typical value (0.86 droplets, 0.77 ice).
   const double asym =
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
-  c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
+  c.earth.air(at, L.altitude, mu_air, mu_sun, air);
   const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
+  std::array<double, optics::max_band_count> path;
+  path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
     const optics::OpticalProperties p =
@@ -777,10 +798,11 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
       rad += lo.reflectance / M_PI *
              (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
     if (band.thermal) rad += lo.emissivity * c.tables.planck[b]->forward(t_cloud);
-    const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
+    const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_air) : 1.0;
     // Over the pixel: the cloud's share of it, and the rest seen unobstructed.
     lb[b] = static_cast<float>(cover * rad * air.t_view[b] * up_share);
     lb[nb + b] = static_cast<float>(1 - cover * (1 - lo.transmittance));
+    lb[2 * nb + b] = static_cast<float>(path[b]);
   }
 }
 
@@ -793,18 +815,19 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
 #pragma omp parallel
   {
     // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
-    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
     std::vector<double> t_max(static_cast<std::size_t>(w));
     std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
     std::vector<int> lit;                 // the row's hits in sunlight
     std::vector<earth::Vec3> lit_points;  // their positions
     std::vector<CloudLengths> lengths;    // the cloud towards the Sun from them
-#pragma omp for schedule(dynamic, 4) reduction(+ : marched)
+    // A row at a time: a band may hold as few as 16 rows, and chunks of several left one thread
+    // idle at the end of each pass.
+#pragma omp for schedule(dynamic, 1) reduction(+ : marched)
     for (int y = rb.y0; y < rb.y1; ++y) {
-      c.sub.row_rays(c.sensor, y, dirs.data());
+      const earth::Vec3* dirs = rb.row_dirs(y, w);
       const std::size_t row = static_cast<std::size_t>(y - rb.y0) * w;
       for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = rb.t_earth[row + x];
-      march_shell(shell, c.sensor.position, dirs.data(), t_max.data(), dirs.size(), c.params.steps,
+      march_shell(shell, c.sensor.position, dirs, t_max.data(), static_cast<std::size_t>(w), c.params.steps,
                   c.params.bisection_iterations, row_hits.data(), c.spread);
       // The clouds of the other shells towards the Sun from this row's hits.
       lit.clear(), lit_points.clear();
@@ -820,8 +843,8 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
         marched += hit.marched;
         if (!hit.hit) continue;
         const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
-        shade_hit(c, si, hit, dirs[static_cast<std::size_t>(x)], shadowed ? &lengths[next_lit] : nullptr,
-                  rb.layer(row + x, si), rb.bands(row + x, si));
+        shade_hit(c, si, hit, dirs[x], shadowed ? &lengths[next_lit] : nullptr, rb.layer(row + x, si),
+                  rb.bands(row + x, si));
         next_lit += shadowed;
       }
       progress.advance();
@@ -830,29 +853,18 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
   return marched;
 }
 
-// The air's own radiance per band between a point at altitude z and the sensor [W m^-2 sr^-1
-// um^-1]: its thermal emission and the sunlight it scatters (Rayleigh, single scattering).
-void path_radiance(const RenderContext& c, const AirSample& air, double mu_view, double mu_sun, double cos_scatter,
-                   std::array<double, optics::max_band_count>& out) {
-  for (std::size_t b = 0; b < c.band_count(); ++b) {
-    out[b] = air.path[b];
-    if (c.tables.bands[b]->sunlit())
-      out[b] += rayleigh_path(c.solar_irradiance(b), air.tau_rayleigh[b], mu_view, mu_sun, cos_scatter) *
-                std::sqrt(air.t_view[b] * air.t_sun[b]);
-  }
-}
-
 // The ground where a ray meets it: reflected sunlight (Lambertian albedo, and sun glint on open
 // water) and emission, as they reach the sensor, per band; and the air's radiance above it.
 void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const earth::Vec3& up, const earth::Vec3& d,
                      const CloudLengths* towards_sun, std::array<double, optics::max_band_count>& out,
                      std::array<double, optics::max_band_count>& path) {
-  const double z = c.earth.ground_height_m(g.lat_deg, g.lon_deg);
+  const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
+  const double z = c.earth.ground_height_m(at);
   std::array<double, optics::max_band_count> sky_down{};
-  const surface::State ground = c.earth.ground(g.lat_deg, g.lon_deg, &sky_down);
+  const surface::State ground = c.earth.ground(at, &sky_down);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
-  c.earth.air(g.lat_deg, g.lon_deg, z, mu_view, mu_sun, air);
+  c.earth.air(at, z, mu_view, mu_sun, air);
   const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);
@@ -887,6 +899,7 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   if (h > 100e3) return;
   const earth::Vec3 up = glm::normalize(tangent);
   const earth::Geodetic g = earth::geodetic(tangent);
+  const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double mu_sun = glm::dot(c.sun_dir, up);
   const double m = t_tangent > 0 ? 2 * grazing_air_mass(h) : atmosphere::air_mass(std::max(glm::dot(up, d), 0.0));
   const std::size_t nb = c.band_count();
@@ -896,9 +909,9 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   AirSample air;
   for (std::size_t k = above.size(); k-- > 0;) {
     const double z = h + above[k];
-    c.earth.air(g.lat_deg, g.lon_deg, z, 1.0, std::max(mu_sun, 0.02), air);
+    c.earth.air(at, z, 1.0, std::max(mu_sun, 0.02), air);
     const double temperature =
-        c.earth.temperature_k(g.lat_deg, g.lon_deg, z + 0.5 * (k + 1 < above.size() ? above[k + 1] - above[k] : 0));
+        c.earth.temperature_k(at, z + 0.5 * (k + 1 < above.size() ? above[k + 1] - above[k] : 0));
     for (std::size_t b = 0; b < nb; ++b) {
       const double t = std::pow(std::max(static_cast<double>(air.t_view[b]), 1e-30), m);
       if (k + 1 == above.size()) t_prev[b] = 1.0;
@@ -928,35 +941,27 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
     for (; j > 0 && pl[order[j - 1]].t > pl[s].t; --j) order[j] = order[j - 1];
     order[j] = s;
   }
-  std::array<double, optics::max_band_count> path{};
   for (std::size_t b = 0; b < nb; ++b) rad[b] = 0, trans[b] = 1, path_above[b] = 0;
   float tau = 0, clear = 1;  // the share of the pixel no layer covers
   for (std::size_t s = 0; s < ns; ++s) {
     const Layer& L = pl[order[s]];
     const float* const lb = &rb.layer_bands[(bpx * ns + order[s]) * rb.lbf];
     if (!std::isfinite(L.t)) break;
-    const earth::Vec3 p = c.sensor.position + static_cast<double>(L.t) * d;
-    const earth::Geodetic g = earth::geodetic(p);
     clear *= 1 - L.coverage;
     img.cloud_fraction[px] = 1 - clear;
     if (s == 0) {
+      const earth::Geodetic g = earth::geodetic(c.sensor.position + static_cast<double>(L.t) * d);
       img.cloud_top_altitude_m[px] = L.altitude;
       img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
       img.latitude_deg[px] = static_cast<float>(g.lat_deg);
       img.longitude_deg[px] = static_cast<float>(g.lon_deg);
     }
-    if (c.earth.atmosphere()) {
-      const earth::Vec3 up = glm::normalize(p);
-      const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
-      AirSample air;
-      c.earth.air(g.lat_deg, g.lon_deg, L.altitude, mu_view, mu_sun, air);
-      path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
-    }
     tau += L.tau_vis;
-    for (std::size_t b = 0; b < nb; ++b) {
-      rad[b] += trans[b] * (std::max(0.0, path[b] - path_above[b]) + lb[b]);
+    for (std::size_t b = 0; b < nb; ++b) {  // the air between this layer and the one in front, then the layer
+      const double path = lb[2 * nb + b];
+      rad[b] += trans[b] * (std::max(0.0, path - path_above[b]) + lb[b]);
       trans[b] *= lb[nb + b];
-      path_above[b] = path[b];
+      path_above[b] = path;
     }
   }
   return tau;
@@ -969,25 +974,23 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
   const std::size_t nb = c.band_count(), mb = optics::max_band_count;
 #pragma omp parallel
   {
-    std::vector<earth::Vec3> dirs(static_cast<std::size_t>(w));
     std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size());
     std::vector<int> lit;
     std::vector<earth::Vec3> lit_points;
     std::vector<CloudLengths> lengths;
-#pragma omp for schedule(dynamic, 4)
+#pragma omp for schedule(dynamic, 1)
     for (int y = rb.y0; y < rb.y1; ++y) {
-      c.sub.row_rays(c.sensor, y, dirs.data());
+      const earth::Vec3* dirs = rb.row_dirs(y, w);
       lit.clear(), lit_points.clear();
       for (int x = 0; x < w; ++x) {
         const std::size_t px = static_cast<std::size_t>(y) * w + x;
         const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
         const auto xo = static_cast<std::size_t>(x) * mb;
-        img.cloud_optical_depth[px] = composite_layers(c, rb, bpx, px, dirs[static_cast<std::size_t>(x)], img, &rad[xo],
-                                                       &trans[xo], &path_above[xo]);
+        img.cloud_optical_depth[px] =
+            composite_layers(c, rb, bpx, px, dirs[x], img, &rad[xo], &trans[xo], &path_above[xo]);
         // The ground points the Sun lights and that show through the clouds: their shadows.
         if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
-        const earth::Vec3 q =
-            c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[static_cast<std::size_t>(x)];
+        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[x];
         double seen = 0;
         for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[xo + b]);
         if (seen > 1e-4 && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
@@ -998,7 +1001,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const std::size_t px = static_cast<std::size_t>(y) * w + x;
         const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
         const auto xo = static_cast<std::size_t>(x) * mb;
-        const earth::Vec3& d = dirs[static_cast<std::size_t>(x)];
+        const earth::Vec3& d = dirs[x];
         std::array<double, optics::max_band_count> bg{}, bg_path{};
         if (std::isfinite(rb.t_earth[bpx])) {
           const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
