@@ -10,8 +10,8 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
                           int steps, double* out, const double* footprint_m, double* chance) {
   thread_local std::vector<double> t0, t1, px, py, pz, vals, fp;
   thread_local std::vector<clouds::PathCoverage> paths;
-  thread_local std::vector<std::uint8_t> possible;
-  thread_local std::vector<std::uint32_t> live;
+  thread_local std::vector<std::uint8_t> possible, found;
+  thread_local std::vector<std::uint32_t> live, owner, first;
   thread_local std::vector<earth::Vec3> pts;
   t0.resize(n), t1.resize(n), possible.resize(n);
   const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
@@ -27,23 +27,33 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     if (t0[i] >= t1[i]) t0[i] = t1[i] = 0;
   }
   // Empty-space skip: the mask's neighbourhood maximum at the path's two ends and between them,
-  // one lookup per skip radius of arc.
+  // one lookup per skip radius of arc (the points as they are: a cube map's lookup needs no
+  // unit vector). First each path's count m of segments and where its m + 1 points go, then
+  // the points.
   std::fill(possible.begin(), possible.end(), 0);
-  px.clear(), py.clear(), pz.clear(), live.clear();
-  std::vector<std::uint32_t> owner;
+  live.clear(), owner.clear(), first.resize(n + 1);
+  std::size_t np = 0;
   for (std::size_t i = 0; i < n; ++i) {
+    first[i] = static_cast<std::uint32_t>(np);
     if (t1[i] <= t0[i]) continue;
     const earth::Vec3 a = o[i] + t0[i] * d, e = o[i] + t1[i] * d;
     const double arc = glm::length(glm::normalize(e) - glm::normalize(a));
-    const int m = 1 + static_cast<int>(std::min(arc / shell.skip_radius_rad(), 64.0));
-    for (int k = 0; k <= m; ++k) {
-      const earth::Vec3 p = glm::normalize(o[i] + (t0[i] + (t1[i] - t0[i]) * k / m) * d);
-      px.push_back(p.x), py.push_back(p.y), pz.push_back(p.z), owner.push_back(static_cast<std::uint32_t>(i));
+    np += 2 + static_cast<std::size_t>(std::min(arc / shell.skip_radius_rad(), 64.0));
+  }
+  first[n] = static_cast<std::uint32_t>(np);
+  px.resize(np), py.resize(np), pz.resize(np), owner.resize(np), found.resize(np);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t k0 = first[i], count = first[i + 1] - k0;  // m + 1 points, or none
+    if (count == 0) continue;
+    const double step = (t1[i] - t0[i]) / static_cast<double>(count - 1);
+    for (std::uint32_t k = 0; k < count; ++k) {
+      const double t = t0[i] + step * k;
+      px[k0 + k] = o[i].x + t * d.x, py[k0 + k] = o[i].y + t * d.y, pz[k0 + k] = o[i].z + t * d.z;
+      owner[k0 + k] = static_cast<std::uint32_t>(i);
     }
   }
-  std::vector<std::uint8_t> found(owner.size());
-  shell.may_have_cloud(px.data(), py.data(), pz.data(), owner.size(), found.data());
-  for (std::size_t k = 0; k < owner.size(); ++k) possible[owner[k]] |= found[k];
+  shell.may_have_cloud(px.data(), py.data(), pz.data(), np, found.data());
+  for (std::size_t k = 0; k < np; ++k) possible[owner[k]] |= found[k];
   for (std::size_t i = 0; i < n; ++i) {
     out[i] = 0;
     if (chance) chance[i] = 0;
@@ -61,9 +71,10 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   }
   const double thr = shell.threshold();
   for (int k = 0; k < steps; ++k) {
+    const double mid = (k + 0.5) / steps;  // the step's midpoint, as a share of the path
     for (std::size_t j = 0; j < nl; ++j) {
       const std::uint32_t i = live[j];
-      pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * (k + 0.5) / steps) * d;
+      pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * mid) * d;
     }
     if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
       shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
