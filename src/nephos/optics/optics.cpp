@@ -188,8 +188,10 @@ OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_
   const double beta = 3.0 * water_content_g_m3 * q_ext / (4.0 * rho * r_m);
   // Anomalous diffraction: Q_abs(w) = 1 + 2 e^-w / w + 2 (e^-w - 1) / w^2, w = 8 pi n_i r / lambda.
   const double w = 8.0 * M_PI * imaginary_index(phase, b) * r_e_um / b.centre_um;
-  const double q_abs =
-      w < 1e-4 ? (2.0 / 3.0) * w - w * w / 4.0 : 1.0 + 2.0 * std::exp(-w) / w + 2.0 * std::expm1(-w) / (w * w);
+  // e^-w as 1 + expm1(-w): one exponential per pixel and band (its rounding, 1e-16 of 1, is
+  // 2e-16 / w of Q_abs: below 1e-7 of it for w >= 1e-4).
+  const double em1 = w < 1e-4 ? 0.0 : std::expm1(-w);
+  const double q_abs = w < 1e-4 ? (2.0 / 3.0) * w - w * w / 4.0 : 1.0 + 2.0 * (1.0 + em1) / w + 2.0 * em1 / (w * w);
   return {beta, std::clamp(1.0 - q_abs / q_ext, 0.0, 1.0)};
 }
 

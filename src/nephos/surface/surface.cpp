@@ -125,7 +125,8 @@ double glint_reflectance(double mu0, double mu, double cos_phase, double wind, d
   const double tan2_beta = (1 - cos_beta * cos_beta) / (cos_beta * cos_beta);
   const double s2 = 0.003 + 5.12e-3 * std::max(0.0, wind);
   const double p = std::exp(-tan2_beta / s2) / (M_PI * s2);
-  return M_PI * p * fresnel_reflectance(cos_i, n) / (4 * mu0 * mu * std::pow(cos_beta, 4));
+  const double cos2_beta = cos_beta * cos_beta;
+  return M_PI * p * fresnel_reflectance(cos_i, n) / (4 * mu0 * mu * cos2_beta * cos2_beta);
 }
 
 }  // namespace nephos::surface
