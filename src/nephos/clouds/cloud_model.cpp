@@ -595,16 +595,17 @@ void CloudShell::build_detail_tables() {
   for (std::size_t k = 0; k < coverage_.size(); ++k) log_clear_[k] = std::log(std::max(1 - coverage_[k], 1e-12));
 }
 
-PathCoverage::PathCoverage(const CloudShell& s, double footprint_m, double path_m) {
-  const double var = s.detail_variance(footprint_m), renewing = s.detail_variance(std::min(footprint_m, path_m));
+void PathCoverage::split(const CloudShell& s) {
+  split_ = true;
+  const double var = s.detail_variance(footprint_m_), renewing = s.detail_variance(std::min(footprint_m_, path_m_));
   if (!(renewing > 1e-6 * var)) return;  // nothing renews along so short a path: the likeliest step
-  scale_ = std::sqrt(var / renewing), rate_ = 1 / s.detail_length_m(std::min(footprint_m, path_m));
+  scale_ = std::sqrt(var / renewing), rate_ = 1 / s.detail_length_m(std::min(footprint_m_, path_m_));
   const double shared = std::sqrt(std::max(0.0, var - renewing) / renewing);  // sigma_c / sigma_renewing
   for (std::size_t k = 0; k < shift_.size(); ++k) shift_[k] = s.z_nodes()[k] * shared;
 }
 
 double PathCoverage::chance() const {
-  if (rate_ <= 0) return c_max_;
+  if (rate_ <= 0) return c_max_;  // no cloud met (0), or none renewing: the likeliest step
   double clear = 0;
   for (const double l : log_clear_) clear += std::exp(l) / static_cast<double>(log_clear_.size());
   return std::max(c_max_, 1 - clear);

@@ -349,21 +349,29 @@ class PathCoverage {
   PathCoverage() = default;
   /// @param footprint_m  the footprint's width along the path [m]
   /// @param path_m       the path's length inside the shell [m]
-  PathCoverage(const CloudShell& s, double footprint_m, double path_m);
+  PathCoverage(double footprint_m, double path_m) : footprint_m_(footprint_m), path_m_(path_m) {}
   /// One step of length ds_m [m] at filtered distance u (CloudShell::classify_filtered); returns
   /// the step's coverage, coverage(u).
   double add(const CloudShell& s, double u, double ds_m) {
     const double c = s.coverage(u);
     c_max_ = std::max(c_max_, c);
-    if (c > 0 && rate_ > 0) {
-      const double w = ds_m * rate_, x = u * scale_;
-      for (std::size_t n = 0; n < shift_.size(); ++n) log_clear_[n] += w * s.log_clear(x + shift_[n]);
+    if (c > 0) {
+      if (!split_) split(s);
+      if (rate_ > 0) {
+        const double w = ds_m * rate_, x = u * scale_;
+        for (std::size_t n = 0; n < shift_.size(); ++n) log_clear_[n] += w * s.log_clear(x + shift_[n]);
+      }
     }
     return c;
   }
   double chance() const;
 
  private:
+  // The detail's split into shared and renewing parts, made at the first step with cloud (most
+  // paths a skip leaves possible meet none, and need no tables).
+  void split(const CloudShell& s);
+  double footprint_m_ = 0, path_m_ = 0;
+  bool split_ = false;
   double scale_ = 1, rate_ = 0, c_max_ = 0;  // sigma / sigma_renewing; 1 / l(L)
   std::array<double, CloudShell::z_node_count> shift_{}, log_clear_{};
 };

@@ -185,7 +185,7 @@ TEST(CloudShell, AFilteredPathMeetsCloudAsOftenAsItsRaysDo) {
           truth += hits / static_cast<double>(rays) / places;
           for (int t = 0; t <= coarse; ++t) q[t] = top + dir * (length * t / coarse);
           s.classify_filtered(q.data(), footprint.data(), q.size(), u.data());
-          PathCoverage path(s, w, length);
+          PathCoverage path(w, length);
           for (int t = 0; t <= coarse; ++t) path.add(s, u[t], length / coarse * (t == 0 || t == coarse ? 0.5 : 1.0));
           model += path.chance() / places;
         }

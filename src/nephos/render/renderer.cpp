@@ -329,7 +329,7 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
   w.paths.resize(nr);
   for (std::size_t j = 0; j < nr; ++j) {  // the footprint at the path's middle stands for the whole path
     const double length = ds[j] * steps;
-    w.paths[j] = clouds::PathCoverage(shell, spread * w.t_at(j, 0.5 * length), length);
+    w.paths[j] = clouds::PathCoverage(spread * w.t_at(j, 0.5 * length), length);
   }
   for (int k = 0; k <= steps; ++k) {
     const double kd = k, km1 = k > 0 ? k - 1 : 0, end_weight = (k == 0 || k == steps) ? 0.5 : 1.0;

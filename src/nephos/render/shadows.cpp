@@ -66,7 +66,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     fp.resize(nl), paths.resize(nl);
     for (std::size_t j = 0; j < nl; ++j) {
       fp[j] = footprint_m[live[j]];
-      paths[j] = clouds::PathCoverage(shell, fp[j], t1[live[j]] - t0[live[j]]);
+      paths[j] = clouds::PathCoverage(fp[j], t1[live[j]] - t0[live[j]]);
     }
   }
   const double thr = shell.threshold();
