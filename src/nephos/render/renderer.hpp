@@ -44,7 +44,7 @@ struct RenderParams {
   bool stratified_samples = true;
   std::uint64_t sample_seed = 0;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
-  /// Memory for the per-type layers of one band of image rows [bytes] (16 + 12 B per band per pixel and
+  /// Memory for the per-type layers of one band of image rows [bytes] (16 B plus 12 B per band, per pixel and
   /// cloud type): the image is rendered and composited band by band, at least 8 rows per
   /// thread. The result does not depend on it; only the peak memory does.
   std::size_t layer_budget_bytes = std::size_t{64} << 20;

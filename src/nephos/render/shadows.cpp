@@ -31,7 +31,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   // unit vector). First each path's count m of segments and where its m + 1 points go, then
   // the points.
   std::fill(possible.begin(), possible.end(), 0);
-  live.clear(), owner.clear(), first.resize(n + 1);
+  live.clear(), first.resize(n + 1);
   std::size_t np = 0;
   for (std::size_t i = 0; i < n; ++i) {
     first[i] = static_cast<std::uint32_t>(np);
