@@ -5,8 +5,12 @@
 #include <cmath>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/simd_math.hpp"
 
 namespace nephos::optics {
+namespace {
+constexpr double q_ext = 2.0;  // cloud particles' extinction efficiency: the geometric-optics limit
+}  // namespace
 
 double planck(double lambda_um, double t_k) {
   const double x = c2_um_k / (lambda_um * t_k);
@@ -147,20 +151,40 @@ double standard_atmosphere_temperature_k(double altitude_m) {
   return t;
 }
 
-SlabResult two_stream_slab(double tau, double omega) {
-  omega = std::clamp(omega, 0.0, 1.0);
-  if (tau <= 0) return {0.0, 1.0};
-  const double k = std::sqrt(std::max(0.0, 1.0 - omega * omega));
-  if (k * tau < 1e-6) {  // conservative limit (3a)/(3b), series in k tau
-    return {omega * tau / (1 + tau), 1 / (1 + tau)};
+void two_stream_slabs(const double* tau, const double* omega_in, std::size_t n, double* r, double* t) {
+  // In chunks: k and x = k tau, then sinh and cosh from one expm1 each (with e = exp(x),
+  // sinh x = expm1(x) (e + 1) / (2 e) keeps full relative precision at small x), then the
+  // regimes: empty (tau <= 0), conservative (the series in k tau), semi-infinite (sinh and
+  // cosh would overflow), general.
+  constexpr std::size_t chunk = 16;
+  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
+    const std::size_t m = std::min(chunk, n - c0);
+    alignas(64) double k[chunk], x[chunk], em[chunk], omega[chunk];
+    for (std::size_t i = 0; i < m; ++i) {
+      omega[i] = std::clamp(omega_in[c0 + i], 0.0, 1.0);
+      k[i] = std::sqrt(std::max(0.0, 1.0 - omega[i] * omega[i]));
+      x[i] = std::min(k[i] * tau[c0 + i], 350.0);
+    }
+    for (std::size_t i = 0; i < m; ++i) em[i] = std::expm1(x[i]);
+    for (std::size_t i = 0; i < m; ++i) {
+      const double ta = tau[c0 + i], xi = k[i] * ta, e = 1 + em[i];
+      const double sh = 0.5 * em[i] * (e + 1) / e, ch = sh + 1 / e, d = k[i] * ch + sh;
+      if (ta <= 0)
+        r[c0 + i] = 0, t[c0 + i] = 1;
+      else if (xi < 1e-6)
+        r[c0 + i] = omega[i] * ta / (1 + ta), t[c0 + i] = 1 / (1 + ta);
+      else if (xi > 350)
+        r[c0 + i] = omega[i] / (k[i] + 1), t[c0 + i] = 0;
+      else
+        r[c0 + i] = omega[i] * sh / d, t[c0 + i] = k[i] / d;
+    }
   }
-  if (k * tau > 350) return {omega / (k + 1), 0.0};  // semi-infinite: sinh/cosh overflow guard
-  // sinh and cosh from one expm1 (the renderer calls this per pixel and band): with
-  // e = exp(x), sinh x = expm1(x) (e + 1) / (2 e) keeps full relative precision at small x.
-  const double em = std::expm1(k * tau), e = 1 + em;
-  const double sh = 0.5 * em * (e + 1) / e, ch = sh + 1 / e;
-  const double d = k * ch + sh;
-  return {omega * sh / d, k / d};
+}
+
+SlabResult two_stream_slab(double tau, double omega) {
+  SlabResult s{};
+  two_stream_slabs(&tau, &omega, 1, &s.reflectance, &s.transmittance);
+  return s;
 }
 
 SlabResult two_stream_fit(double tau, double omega) {
@@ -183,16 +207,31 @@ OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double r_
     throw ValueError(fmt::format("water content {} g/m3 and effective radius {} um must be >= 0 and > 0",
                                  water_content_g_m3, r_e_um));
   const double rho = phase == Phase::water ? 1.0e6 : 0.917e6;  // density [g/m^3]
-  constexpr double q_ext = 2.0;                                // geometric-optics limit
   const double r_m = r_e_um * 1e-6;
   const double beta = 3.0 * water_content_g_m3 * q_ext / (4.0 * rho * r_m);
-  // Anomalous diffraction: Q_abs(w) = 1 + 2 e^-w / w + 2 (e^-w - 1) / w^2, w = 8 pi n_i r / lambda.
-  const double w = 8.0 * M_PI * imaginary_index(phase, b) * r_e_um / b.centre_um;
-  // e^-w as 1 + expm1(-w): one exponential per pixel and band (its rounding, 1e-16 of 1, is
-  // 2e-16 / w of Q_abs: below 1e-7 of it for w >= 1e-4).
-  const double em1 = w < 1e-4 ? 0.0 : std::expm1(-w);
-  const double q_abs = w < 1e-4 ? (2.0 / 3.0) * w - w * w / 4.0 : 1.0 + 2.0 * (1.0 + em1) / w + 2.0 * em1 / (w * w);
-  return {beta, std::clamp(1.0 - q_abs / q_ext, 0.0, 1.0)};
+  const double w = anomalous_diffraction_w(imaginary_index(phase, b), r_e_um, b.centre_um);
+  double omega = 0;
+  anomalous_diffraction_albedos(&w, 1, &omega);
+  return {beta, omega};
+}
+
+void anomalous_diffraction_albedos(const double* w, std::size_t n, double* omega) {
+  // Q_abs(w) = 1 + 2 e^-w / w + 2 (e^-w - 1) / w^2 (van de Hulst 1957), its series 2w/3 - w^2/4
+  // below w = 1e-4; e^-w as 1 + expm1(-w), one exponential (its rounding, 1e-16 of 1, is
+  // 2e-16 / w of Q_abs: below 1e-7 of it for w >= 1e-4). The expm1 in a loop of its own that
+  // vectorises.
+  constexpr std::size_t chunk = 16;
+  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
+    const std::size_t m = std::min(chunk, n - c0);
+    alignas(64) double em1[chunk];
+    for (std::size_t i = 0; i < m; ++i) em1[i] = std::expm1(-w[c0 + i]);
+    for (std::size_t i = 0; i < m; ++i) {
+      const double wi = w[c0 + i];
+      const double q_abs =
+          wi < 1e-4 ? (2.0 / 3.0) * wi - wi * wi / 4.0 : 1.0 + 2.0 * (1.0 + em1[i]) / wi + 2.0 * em1[i] / (wi * wi);
+      omega[c0 + i] = std::clamp(1.0 - q_abs / q_ext, 0.0, 1.0);
+    }
+  }
 }
 
 }  // namespace nephos::optics

@@ -2,6 +2,7 @@
 // Radiometry and cloud optics for the global renderer (the fractal-cloud paper, section 2.3):
 // Planck radiance and its inverse, sensor bands, the 1976 U.S. Standard Atmosphere temperature,
 // the two-stream slab relations (2a)-(4b), Beer's law, and cloud optical properties.
+#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -42,6 +43,10 @@ const Band& band(const std::string& name);
 std::string band_names();  ///< "blue, vis, nir, ..."
 /// The most bands one render takes: every built-in band once.
 inline constexpr std::size_t max_band_count = 16;
+/// Lanes for loops over n bands padded with inert lanes to 8 or 16, multiples of every vector
+/// width: a batched loop (two_stream_slabs()) then runs every band through the same vector
+/// arithmetic, with no scalar remainder.
+inline constexpr std::size_t band_lanes(std::size_t n) { return n <= 8 ? 8 : max_band_count; }
 /// Band-mean extraterrestrial solar irradiance at 1 AU [W m^-2 um^-1] over [lo, hi] um, from the
 /// ASTM G173-03 extraterrestrial spectrum (0.28-4 um; Gueymard 2004), and beyond 4 um from the
 /// Sun as a 5772 K blackbody.
@@ -69,6 +74,10 @@ struct SlabResult {
 ///   R = omega sinh(k tau) / D,  T = k / D.
 /// For omega = 1 it reduces to (3a)/(3b).
 SlabResult two_stream_slab(double tau, double omega);
+/// two_stream_slab() for n slabs at once (arrays of n), its exponentials in a loop that
+/// vectorises; every lane of a whole vector (n a multiple of 8) takes the same arithmetic.
+void two_stream_slabs(const double* tau, const double* omega, std::size_t n, double* reflectance,
+                      double* transmittance);
 /// The seed's conservative closed forms (3a) I_trans = I0/(1+tau), (3b) I_ref = I0 tau/(1+tau),
 /// scaled by its absorption fit (4a)/(4b): factor 1 - sqrt(1 - omega^2).
 SlabResult two_stream_fit(double tau, double omega);
@@ -106,6 +115,15 @@ struct OpticalProperties {
 /// imaginary refractive index (water: Hale & Querry 1973; ice: Warren & Brandt 2008).
 /// water_content in g/m^3, effective radius in um.
 OpticalProperties cloud_optics(Phase phase, double water_content_g_m3, double effective_radius_um, const Band& band);
+/// cloud_optics()'s single-scattering albedo 1 - Q_abs / Q_ext for n anomalous-diffraction size
+/// parameters w = 8 pi k r_e / lambda (k the band's imaginary index, lambda its centre) at once,
+/// the exponentials in a loop that vectorises (as two_stream_slabs()).
+void anomalous_diffraction_albedos(const double* w, std::size_t n, double* omega);
+/// The anomalous-diffraction size parameter w = 8 pi k r_e / lambda [-] of particles of
+/// effective radius r_e [um] and imaginary refractive index k at wavelength lambda [um].
+inline double anomalous_diffraction_w(double k_imag, double r_e_um, double lambda_um) {
+  return 8.0 * M_PI * k_imag * r_e_um / lambda_um;
+}
 /// Imaginary refractive index used for a band: refractive_index() at its centre.
 double imaginary_index(Phase phase, const Band& band);
 

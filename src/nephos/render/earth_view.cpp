@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "nephos/atmosphere/profile.hpp"
+#include "nephos/core/simd_math.hpp"
 #include "nephos/earth/earth.hpp"
 
 namespace nephos::render {
@@ -179,15 +180,21 @@ void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, Air
     wsum += w, wsun += sun ? w : 0.0;
   }
   if (wsum <= 0) return;
+  // The exponentials of every band in loops that vectorise (core/simd_math.hpp), over the
+  // padded lanes (log_t and log_sun are 0 beyond nb).
+  const std::size_t lanes = optics::band_lanes(nb);
+  const double wsun_or_1 = wsun > 0 ? wsun : 1.0;
+  std::array<double, optics::max_band_count> t_pix, t_sun;
+  for (std::size_t b = 0; b < lanes; ++b)
+    t_pix[b] = std::exp(log_t[b] / wsum), t_sun[b] = std::exp(log_sun[b] / wsun_or_1);
   for (std::size_t b = 0; b < nb; ++b) {
     // The air's emission: its mean Planck radiance times the pixel's absorptance.
-    const double t_pix = std::exp(log_t[b] / wsum);
-    out.t_view[b] = static_cast<float>(t_pix), out.path[b] = static_cast<float>(q[b] / wsum * (1 - t_pix));
+    out.t_view[b] = static_cast<float>(t_pix[b]), out.path[b] = static_cast<float>(q[b] / wsum * (1 - t_pix[b]));
     out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
     if (m_sun <= 0)
       out.t_sun[b] = 0;
     else if (wsun > 0 && bands_[b]->sunlit())  // the Sun's path: bands with sunlight
-      out.t_sun[b] = static_cast<float>(std::exp(log_sun[b] / wsun));
+      out.t_sun[b] = static_cast<float>(t_sun[b]);
   }
 }
 

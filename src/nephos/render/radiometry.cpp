@@ -4,23 +4,39 @@
 #include <cmath>
 
 #include "nephos/atmosphere/rayleigh.hpp"
+#include "nephos/core/simd_math.hpp"
 #include "nephos/earth/earth.hpp"
 #include "nephos/optics/optics.hpp"
 
 namespace nephos::render {
 
+void cloud_layers(const double* tau, const double* omega, double g, double mu_view, std::size_t n, double* r, double* t,
+                  double* e) {
+  const double mu = std::clamp(mu_view, 0.05, 1.0);
+  constexpr std::size_t chunk = 16;
+  for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
+    const std::size_t m = std::min(chunk, n - c0);
+    alignas(64) double tau_s[chunk], omega_s[chunk], slab_r[chunk], slab_t[chunk], direct[chunk], diffuse[chunk];
+    for (std::size_t i = 0; i < m; ++i) {
+      const optics::SlabOptics s = optics::similarity_scaled(tau[c0 + i], omega[c0 + i], g);
+      tau_s[i] = s.tau, omega_s[i] = s.omega;
+    }
+    optics::two_stream_slabs(tau_s, omega_s, m, slab_r, slab_t);
+    // Seen through the layer: the direct beam along the view and the diffusely transmitted part
+    // (the two-stream transmittance less its own direct share at the diffusivity cosine 0.6).
+    for (std::size_t i = 0; i < m; ++i) direct[i] = std::exp(-tau_s[i] / mu), diffuse[i] = std::exp(-tau_s[i] / 0.6);
+    for (std::size_t i = 0; i < m; ++i) {
+      const bool empty = !(tau[c0 + i] > 0);
+      r[c0 + i] = empty ? 0.0 : slab_r[i];
+      t[c0 + i] = empty ? 1.0 : std::min(1.0, direct[i] + std::max(0.0, slab_t[i] - diffuse[i]));
+      e[c0 + i] = empty ? 0.0 : std::clamp(1.0 - slab_t[i], 0.0, 1.0);
+    }
+  }
+}
+
 LayerOptics cloud_layer(double tau, double omega, double g, double mu_view) {
   LayerOptics l;
-  if (!(tau > 0)) return l;
-  const double mu = std::clamp(mu_view, 0.05, 1.0);
-  const optics::SlabOptics s = optics::similarity_scaled(tau, omega, g);
-  const optics::SlabResult slab = optics::two_stream_slab(s.tau, s.omega);
-  l.reflectance = slab.reflectance;
-  // Seen through the layer: the direct beam along the view and the diffusely transmitted part
-  // (the two-stream transmittance less its own direct share at the diffusivity cosine 0.6).
-  const double direct = std::exp(-s.tau / mu);
-  l.transmittance = std::min(1.0, direct + std::max(0.0, slab.transmittance - std::exp(-s.tau / 0.6)));
-  l.emissivity = std::clamp(1.0 - slab.transmittance, 0.0, 1.0);
+  cloud_layers(&tau, &omega, g, mu_view, 1, &l.reflectance, &l.transmittance, &l.emissivity);
   return l;
 }
 

@@ -4,6 +4,8 @@
 // level through Rayleigh scattering; the Rayleigh path radiance above a level, of a sky seen from
 // below and of the limb, all in single scattering.
 
+#include <cstddef>
+
 namespace nephos::render {
 
 /// One cloud layer as a plane-parallel slab of vertical optical depth tau (similarity-scaled
@@ -18,6 +20,10 @@ struct LayerOptics {
 ///                      mu_view: a plane-parallel layer of the same thickness)
 /// @param mu_view       cos of the view's zenith angle at the layer (>= 0.05 used)
 LayerOptics cloud_layer(double tau_vertical, double omega, double g, double mu_view);
+/// cloud_layer() for n layers (arrays of n: per band, say) of one asymmetry and view at once,
+/// the exponentials in loops that vectorise (optics::two_stream_slabs()).
+void cloud_layers(const double* tau_vertical, const double* omega, double g, double mu_view, std::size_t n,
+                  double* reflectance, double* transmittance, double* emissivity);
 
 /// The share of sunlight at cos zenith mu_sun that reaches a level under Rayleigh optical depth
 /// tau: the direct beam exp(-tau / mu) and half of what is scattered out of it (Rayleigh

@@ -551,6 +551,10 @@ struct RenderContext {
   /// and its scaled single-scattering albedo, for the shadows it casts.
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
+  /// Per band, padded with inert lanes to `lanes` (optics::band_lanes()): the imaginary
+  /// refractive indices of water and ice and the band's centre [um].
+  std::size_t lanes = 8;
+  std::array<double, optics::max_band_count> k_water{}, k_ice{}, centre_um{};
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
   /// (or sub-pixel's) angle at the image centre [rad]; 0 without filtering.
   double spread = 0;
@@ -576,6 +580,11 @@ struct RenderContext {
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
+    lanes = optics::band_lanes(band_count());
+    centre_um.fill(1.0);
+    for (std::size_t b = 0; b < band_count(); ++b)
+      k_water[b] = tables.bands[b]->k_water, k_ice[b] = tables.bands[b]->k_ice,
+      centre_um[b] = tables.bands[b]->centre_um;
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
@@ -775,9 +784,10 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   // mean over the pixel.
   const double cover = hit.coverage;
   L.coverage = static_cast<float>(cover);
-  L.tau_vis = static_cast<float>(
-      cover * optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, c.vis).extinction_per_m *
-      hit.depth_m);
+  // Extinction in the geometric-optics limit: the same in every band.
+  const double extinction_per_m =
+      optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, c.vis).extinction_per_m;
+  L.tau_vis = static_cast<float>(cover * extinction_per_m * hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
   // phase, that phase's typical value (0.86 droplets, 0.77 ice).
   const double asym =
@@ -787,21 +797,25 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
+  // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the padded lanes.
+  const std::size_t lanes = c.lanes;
+  const double* k = m.phase == optics::Phase::water ? c.k_water.data() : c.k_ice.data();
+  std::array<double, optics::max_band_count> w, omega, tau, refl, trans, emis;
+  for (std::size_t b = 0; b < lanes; ++b)
+    w[b] = optics::anomalous_diffraction_w(k[b], m.effective_radius_um, c.centre_um[b]);
+  optics::anomalous_diffraction_albedos(w.data(), lanes, omega.data());
+  tau.fill(extinction_per_m * hit.depth_m * mu_view);
+  cloud_layers(tau.data(), omega.data(), asym, mu_view, lanes, refl.data(), trans.data(), emis.data());
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
-    const optics::OpticalProperties p =
-        optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, band);
-    const LayerOptics lo =
-        cloud_layer(p.extinction_per_m * hit.depth_m * mu_view, p.single_scattering_albedo, asym, mu_view);
     double rad = 0;
     if (band.sunlit() && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
-      rad += lo.reflectance / M_PI *
-             (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
-    if (band.thermal) rad += lo.emissivity * c.tables.planck[b]->forward(t_cloud);
+      rad += refl[b] / M_PI * (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
+    if (band.thermal) rad += emis[b] * c.tables.planck[b]->forward(t_cloud);
     const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_air) : 1.0;
     // Over the pixel: the cloud's share of it, and the rest seen unobstructed.
     lb[b] = static_cast<float>(cover * rad * air.t_view[b] * up_share);
-    lb[nb + b] = static_cast<float>(1 - cover * (1 - lo.transmittance));
+    lb[nb + b] = static_cast<float>(1 - cover * (1 - trans[b]));
     lb[2 * nb + b] = static_cast<float>(path[b]);
   }
 }

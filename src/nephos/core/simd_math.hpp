@@ -1,0 +1,18 @@
+#pragma once
+// Vector variants of libm's exponentials: with these declarations a loop that calls std::exp or
+// std::expm1 and vectorises calls glibc's libmvec (2, 4 or 8 lanes per call, as the target
+// allows) instead of one scalar call per element. glibc declares them only under -ffast-math,
+// which nephos does not use. libmvec's exp and expm1 are within 4 ulp (glibc manual, "Known
+// Maximum Errors in Math Functions") and can differ from the scalar functions in the last bits:
+// a loop's elements beyond the last whole vector (its scalar remainder) may round differently,
+// deterministically. Included by the .cpp files whose batched loops want them.
+#include <cmath>
+
+#if defined(__x86_64__) && defined(__GLIBC__) && defined(_OPENMP)
+extern "C" {
+#pragma omp declare simd notinbranch
+double exp(double) noexcept;
+#pragma omp declare simd notinbranch
+double expm1(double) noexcept;
+}
+#endif
