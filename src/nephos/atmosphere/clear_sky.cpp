@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <vector>
 
 #include "nephos/atmosphere/band_model.hpp"
 #include "nephos/atmosphere/rayleigh.hpp"
@@ -127,10 +128,34 @@ void column_layers(const Profile& p, const SubBand& s, bool thermal, std::vector
 }
 }  // namespace
 
+namespace {
+// Kasten & Young's (1989) zenith-angle term 0.50572 (96.07995 - z)^-1.6364, z in degrees.
+double kasten_young_term(double zenith_deg) { return 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364); }
+
+// That term every 0.01 degree of zenith angle up to 80 degrees, linear between the nodes (the
+// closed form beyond, where its curvature grows): the renderer asks for two air masses per
+// pixel and layer, and pow() was a fiftieth of its time. Within 1e-8 of the closed form's air
+// mass, relative (AirMass.FollowsKastenAndYoungsFormula).
+struct KastenYoungTable {
+  static constexpr double step_deg = 0.01, top_deg = 80.0;
+  std::vector<double> term;
+  KastenYoungTable() : term(static_cast<std::size_t>(top_deg / step_deg + 0.5) + 1) {
+    for (std::size_t i = 0; i < term.size(); ++i) term[i] = kasten_young_term(static_cast<double>(i) * step_deg);
+  }
+  double at(double zenith_deg) const {
+    const double x = zenith_deg / step_deg;
+    const auto i = std::min(static_cast<std::size_t>(x), term.size() - 2);
+    return term[i] + (x - static_cast<double>(i)) * (term[i + 1] - term[i]);
+  }
+};
+}  // namespace
+
 double air_mass(double mu) {
+  static const KastenYoungTable table;
   const double zenith_deg = std::acos(std::clamp(mu, -1.0, 1.0)) * 180 / M_PI;
   if (zenith_deg >= 96.0) return 40.0;
-  return 1 / (std::max(mu, 0.0) + 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364));
+  const double term = zenith_deg < KastenYoungTable::top_deg ? table.at(zenith_deg) : kasten_young_term(zenith_deg);
+  return 1 / (std::max(mu, 0.0) + term);
 }
 
 ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, const ColumnGeometry& g, double lat) {
