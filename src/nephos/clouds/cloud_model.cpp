@@ -11,6 +11,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
 #include "nephos/core/parse.hpp"
+#include "nephos/core/simd_math.hpp"
 
 namespace nephos::clouds {
 
@@ -606,8 +607,11 @@ void PathCoverage::split(const CloudShell& s) {
 
 double PathCoverage::chance() const {
   if (rate_ <= 0) return c_max_;  // no cloud met (0), or none renewing: the likeliest step
+  // The exponentials in a loop that vectorises (core/simd_math.hpp), then summed in order.
+  std::array<double, CloudShell::z_node_count> clear_at;
+  for (std::size_t k = 0; k < clear_at.size(); ++k) clear_at[k] = std::exp(log_clear_[k]);
   double clear = 0;
-  for (const double l : log_clear_) clear += std::exp(l) / static_cast<double>(log_clear_.size());
+  for (const double c : clear_at) clear += c / static_cast<double>(clear_at.size());
   return std::max(c_max_, 1 - clear);
 }
 
