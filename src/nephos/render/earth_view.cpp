@@ -154,7 +154,7 @@ void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, Air
   const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
   // Per band, the nodes' optical depths carried to the pixel's air masses (exact for a grey
   // absorber) and their other quantities, weighted bilinearly; exponentiated once.
-  std::array<double, optics::max_band_count> log_t{}, q{}, log_sun{}, tr{};
+  alignas(64) std::array<double, optics::max_band_count> log_t{}, q{}, log_sun{}, tr{};
   double wsum = 0, wsun = 0;
   for (std::size_t k = 0; k < 4; ++k) {
     if (s.w[k] == 0) continue;
@@ -184,7 +184,7 @@ void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, Air
   // padded lanes (log_t and log_sun are 0 beyond nb).
   const std::size_t lanes = optics::band_lanes(nb);
   const double wsun_or_1 = wsun > 0 ? wsun : 1.0;
-  std::array<double, optics::max_band_count> t_pix, t_sun;
+  alignas(64) std::array<double, optics::max_band_count> t_pix, t_sun;
   for (std::size_t b = 0; b < lanes; ++b)
     t_pix[b] = std::exp(log_t[b] / wsum), t_sun[b] = std::exp(log_sun[b] / wsun_or_1);
   for (std::size_t b = 0; b < nb; ++b) {
