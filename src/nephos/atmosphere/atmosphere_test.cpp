@@ -32,12 +32,6 @@ TEST(Profile, SaturationVapourPressure) {
   EXPECT_LT(saturation_pressure_ice_pa(253.15), saturation_pressure_water_pa(253.15));  // supercooled water
 }
 
-// Rayleigh optical depth from first principles against the two published closed forms: Bodhaine
-// et al.'s own fit of their calculation (their eq. 30, at sea level, 45 deg, 360 ppm CO2; within
-// 5e-4 from 0.25 to 1 um: their fit's residual, 4.6e-4 at 1 um), and in the ABI's solar bands
-// Hansen & Travis (1974, eq. 2.29: 0.008569 lambda^-4 (1 + 0.0113 lambda^-2 + 0.00013
-// lambda^-4)), from an older refractive index and depolarisation: within 0.5 % from 0.4 um
-// (1.9 % at 0.25 um).
 TEST(AirMass, FollowsKastenAndYoungsFormula) {
   // Kasten & Young (1989): m = 1 / (cos z + 0.50572 (96.07995 - z)^-1.6364), z in degrees,
   // written out here against air_mass()'s table. Every 0.001 degree from the zenith to 95.9:
@@ -55,6 +49,12 @@ TEST(AirMass, FollowsKastenAndYoungsFormula) {
   EXPECT_EQ(air_mass(-0.5), 40.0);  // below 96 degrees: the capped value
 }
 
+// Rayleigh optical depth from first principles against the two published closed forms: Bodhaine
+// et al.'s own fit of their calculation (their eq. 30, at sea level, 45 deg, 360 ppm CO2; within
+// 5e-4 from 0.25 to 1 um: their fit's residual, 4.6e-4 at 1 um), and in the ABI's solar bands
+// Hansen & Travis (1974, eq. 2.29: 0.008569 lambda^-4 (1 + 0.0113 lambda^-2 + 0.00013
+// lambda^-4)), from an older refractive index and depolarisation: within 0.5 % from 0.4 um
+// (1.9 % at 0.25 um).
 TEST(Rayleigh, OpticalDepthAgainstBodhaineAndHansenTravis) {
   for (double l : {0.25, 0.3, 0.4, 0.47, 0.55, 0.64, 0.865, 1.0}) {
     const double tau = rayleigh_optical_depth(l);

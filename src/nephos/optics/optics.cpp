@@ -17,11 +17,6 @@ double planck(double lambda_um, double t_k) {
   return c1_w_um4_m2_sr / (std::pow(lambda_um, 5) * std::expm1(x));
 }
 
-double brightness_temperature(double lambda_um, double radiance) {
-  if (!(radiance > 0)) return 0.0;
-  return c2_um_k / (lambda_um * std::log1p(c1_w_um4_m2_sr / (std::pow(lambda_um, 5) * radiance)));
-}
-
 namespace data {
 extern const double astm_g173_extraterrestrial[];  // [nm, W m^-2 nm^-1] rows
 extern const std::size_t astm_g173_extraterrestrial_rows, astm_g173_extraterrestrial_cols;

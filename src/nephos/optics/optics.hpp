@@ -16,8 +16,13 @@ inline constexpr double stefan_boltzmann = 5.670374419e-8;  ///< [W m^-2 K^-4] (
 
 /// Spectral radiance B(lambda, T) [W m^-2 sr^-1 um^-1].
 double planck(double wavelength_um, double temperature_k);
-/// Brightness temperature [K] of a monochromatic radiance (exact inverse of planck()).
-double brightness_temperature(double wavelength_um, double radiance);
+/// Brightness temperature [K] of a monochromatic radiance (exact inverse of planck()): 0 for a
+/// radiance <= 0. Inline, so that loops over radiances vectorise.
+inline double brightness_temperature(double wavelength_um, double radiance) {
+  const double r = radiance > 0 ? radiance : 1.0;
+  const double t = c2_um_k / (wavelength_um * std::log1p(c1_w_um4_m2_sr / (std::pow(wavelength_um, 5) * r)));
+  return radiance > 0 ? t : 0.0;
+}
 
 // ---- Sensor bands -------------------------------------------------------------------------
 struct Band {

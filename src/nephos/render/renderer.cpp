@@ -41,24 +41,24 @@ struct PlanckTable {
   static constexpr int size = static_cast<int>((t_hi - t_lo) / dt + 0.5) + 1;  // nodes: 30 001
   std::vector<double> radiance;
   // The inverse's first guess: the monochromatic brightness temperature at the band's centre
-  // lambda [um], T_mono = c2 / (lambda ln(1 + c1 / (lambda^5 L))), corrected to a + b T_mono
-  // (least squares over the nodes).
-  double lambda_um = 1, c1_over_lambda5 = 1, a = 0, b = 1;
-  explicit PlanckTable(const optics::Band& band) : radiance(size), lambda_um(band.centre_um) {
+  // [um], corrected linearly to guess_offset_k + guess_slope T_mono (least squares over the nodes).
+  double centre_um = 1, guess_offset_k = 0, guess_slope = 1;
+  explicit PlanckTable(const optics::Band& band) : radiance(size), centre_um(band.centre_um) {
     // 30 001 band integrals of 32 Planck evaluations each: ~0.1 s on one core, so built in
     // parallel, and once per band for the process (planck_table()).
 #pragma omp parallel for schedule(static)
     for (int i = 0; i < size; ++i) radiance[static_cast<std::size_t>(i)] = optics::band_planck(band, t_lo + i * dt);
-    c1_over_lambda5 = optics::c1_w_um4_m2_sr / std::pow(lambda_um, 5);
     double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (std::size_t i = 0; i < radiance.size(); i += 10) {
       if (!(radiance[i] > 0)) continue;
-      const double x = mono(radiance[i]), y = t_lo + static_cast<double>(i) * dt;
+      const double x = optics::brightness_temperature(centre_um, radiance[i]), y = t_lo + static_cast<double>(i) * dt;
       n += 1, sx += x, sy += y, sxx += x * x, sxy += x * y;
     }
-    if (n >= 2 && n * sxx - sx * sx > 0) b = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - b * sx) / n;
+    if (n >= 2 && n * sxx - sx * sx > 0) {
+      guess_slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+      guess_offset_k = (sy - guess_slope * sx) / n;
+    }
   }
-  double mono(double l) const { return optics::c2_um_k / (lambda_um * std::log1p(c1_over_lambda5 / l)); }
   double forward(double t) const {
     const double x = std::clamp((t - t_lo) / dt, 0.0, static_cast<double>(radiance.size() - 2));
     const auto i = static_cast<std::size_t>(x);
@@ -75,8 +75,8 @@ struct PlanckTable {
     for (std::size_t c0 = 0; c0 < n; c0 += chunk) {
       const std::size_t m = std::min(chunk, n - c0);
       for (std::size_t k = 0; k < m; ++k) {
-        const double lk = l[c0 + k] > 0 ? static_cast<double>(l[c0 + k]) : 1.0;  // any positive: not used
-        const double x = (a + b * mono(lk) - t_lo) / dt;
+        const double t_mono = optics::brightness_temperature(centre_um, l[c0 + k]);
+        const double x = (guess_offset_k + guess_slope * t_mono - t_lo) / dt;
         guess[k] = x < 0 ? 0.0 : x > last ? last : x;
       }
       for (std::size_t k = 0; k < m; ++k) t[c0 + k] = static_cast<float>(inverse_from(l[c0 + k], guess[k]));
@@ -603,9 +603,10 @@ struct RenderContext {
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
     lanes = optics::band_lanes(band_count());
     centre_um.fill(1.0);
-    for (std::size_t b = 0; b < band_count(); ++b)
-      k_water[b] = tables.bands[b]->k_water, k_ice[b] = tables.bands[b]->k_ice,
+    for (std::size_t b = 0; b < band_count(); ++b) {
+      k_water[b] = tables.bands[b]->k_water, k_ice[b] = tables.bands[b]->k_ice;
       centre_um[b] = tables.bands[b]->centre_um;
+    }
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
