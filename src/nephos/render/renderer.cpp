@@ -572,10 +572,6 @@ struct RenderContext {
   /// and its scaled single-scattering albedo, for the shadows it casts.
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
-  /// Per band, padded with inert lanes to `lanes` (optics::band_lanes()): the imaginary
-  /// refractive indices of water and ice and the band's centre [um].
-  std::size_t lanes = 8;
-  alignas(64) std::array<double, optics::max_band_count> k_water{}, k_ice{}, centre_um{};
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
   /// (or sub-pixel's) angle at the image centre [rad]; 0 without filtering.
   double spread = 0;
@@ -601,12 +597,6 @@ struct RenderContext {
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
-    lanes = optics::band_lanes(band_count());
-    centre_um.fill(1.0);
-    for (std::size_t b = 0; b < band_count(); ++b) {
-      k_water[b] = tables.bands[b]->k_water, k_ice[b] = tables.bands[b]->k_ice;
-      centre_um[b] = tables.bands[b]->centre_um;
-    }
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
@@ -819,12 +809,15 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
-  // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the padded lanes.
-  const std::size_t lanes = c.lanes;
-  const double* k = m.phase == optics::Phase::water ? c.k_water.data() : c.k_ice.data();
-  alignas(64) std::array<double, optics::max_band_count> w, omega, tau, refl, trans, emis;
-  for (std::size_t b = 0; b < lanes; ++b)
-    w[b] = optics::anomalous_diffraction_w(k[b], m.effective_radius_um, c.centre_um[b]);
+  // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the bands
+  // padded with inert lanes (w = 0) to optics::band_lanes().
+  const std::size_t lanes = optics::band_lanes(nb);
+  alignas(64) std::array<double, optics::max_band_count> w{}, omega, tau, refl, trans, emis;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const optics::Band& band = *c.tables.bands[b];
+    w[b] =
+        optics::anomalous_diffraction_w(optics::imaginary_index(m.phase, band), m.effective_radius_um, band.centre_um);
+  }
   optics::anomalous_diffraction_albedos(w.data(), lanes, omega.data());
   tau.fill(extinction_per_m * hit.depth_m * mu_view);
   cloud_layers(tau.data(), omega.data(), asym, mu_view, lanes, refl.data(), trans.data(), emis.data());
