@@ -545,6 +545,10 @@ void CloudShell::build_term_mips() {
     const noise::MipPyramid& mip = tex_->mips[static_cast<std::size_t>(i)];
     TermMips& tm = term_mips_[static_cast<std::size_t>(i)];
     tm = TermMips{};
+    for (std::size_t l = 0; l < TermMips::max_levels; ++l) {
+      const noise::Texture3D* lt = tex_->level(i, static_cast<int>(l));
+      tm.addressing[l] = (lt ? *lt : (*tex_)[i]).addressing();
+    }
     if (mip.stats.empty()) {  // no pyramid: every footprint reads level 0
       tm.top_level = 1, tm.top = 0;
       tm.hi[0] = tm.hi[1] = std::max(0.0, term.weight);
@@ -632,7 +636,8 @@ template <bool Filtered>
   const int mask_n = mask_cube.size();
   const float* bb = barrier_bottom_.data();
   const float* bt = barrier_top_.data();
-  const double bt_last = static_cast<double>(barrier_top_.size() - 1);
+  const std::size_t bt_end = barrier_top_.size() - 1;
+  const double bt_last = static_cast<double>(bt_end), beyond_ends = 1 - 1e-6;
 #pragma omp simd
   for (std::size_t j = 0; j < m; ++j) {
     const earth::Vec3& q = p[c0 + j];
@@ -655,18 +660,26 @@ template <bool Filtered>
         lift_texels ? Cube::blend_at(l, lift_texels, l.index, 1, static_cast<std::size_t>(mask_n)) : 0.0;
     const double alt = w.r[j] - earth::radius_m, xt = alt - barrier_z0_ - lift;
     const double xb = alt - barrier_z0_ - bottom_lift(lift);
+    // Filtered: out of reach whatever the footprint (sigma at most sigma_max_, the fractal sum
+    // within its bounds); the footprint's own reach is level_stage()'s.
+    const double margin = Filtered ? u_min_ * sigma_max_ : 0.0;
+    const double smooth = bias_ + mask_term(mask);
     double bar;
     if (xb >= 0 && xb <= bt_last - 1 && xt >= 0 && xt <= bt_last - 1) {
       const auto ib = static_cast<std::size_t>(xb), it = static_cast<std::size_t>(xt);
       bar = bb[ib] + (xb - static_cast<double>(ib)) * (bb[ib + 1] - bb[ib]) + bt[it] +
             (xt - static_cast<double>(it)) * (bt[it + 1] - bt[it]);
+    } else if (Filtered && smooth - beyond_ends * ((xb < 0 ? bb[0] : 0.0) + (xt > bt_last ? bt[bt_end] : 0.0)) +
+                                   fractal_max_ <
+                               thr + margin) {
+      // Beyond a table's end its barrier exceeds the end value (both barriers are positive and
+      // monotone; beyond_ends covers the values' float rounding): a filtered point this bound
+      // puts out of reach takes u_min whatever its exact barrier, found without exp.
+      bar = std::numeric_limits<double>::infinity();
     } else {
       bar = barrier(alt, lift);  // off the tables
     }
-    const double base = bias_ + mask_term(mask) - bar;
-    // Filtered: out of reach whatever the footprint (sigma at most sigma_max_, the fractal sum
-    // within its bounds); the footprint's own reach is level_stage()'s.
-    const double margin = Filtered ? u_min_ * sigma_max_ : 0.0;
+    const double base = smooth - bar;
     if (mask < p_.min_mask) {
       out[c0 + j] = Filtered ? u_min_ : std::min(base + fractal_max_, thr) - 1.0;
     } else if (base + fractal_max_ < thr + margin) {
@@ -739,15 +752,22 @@ template <bool Filtered>
     const double inv_ls = 1 / term.length_scale_m;
     Footprints& f = w.f[t];
     if constexpr (Filtered) {
+      // Each point's footprint in its level's texture, in a loop that vectorises (the levels'
+      // addressing from a table); then the level textures and their bounds' prefetches.
+      const noise::Texture3D::Addressing* addressing = term_mips_[static_cast<std::size_t>(i)].addressing.data();
+      const std::uint8_t* level = w.level[i];
+#pragma omp simd
       for (std::size_t a = 0; a < nlive; ++a) {
-        const noise::Texture3D* lt = tex_->level(i, w.level[i][a]);
-        w.level_tex[t][a] = lt;
-        if (!lt) continue;
         const double k = w.lr[a] * inv_ls;
         const double qx = w.ux[a] * k, qy = w.uy[a] * k, qz = w.uz[a] * k;
-        f.set(a, lt->footprint(static_cast<float>(qx - std::floor(qx)), static_cast<float>(qy - std::floor(qy)),
-                               static_cast<float>(qz - std::floor(qz))));
-        lt->prefetch_bounds(f.block[a]);
+        f.set(a, noise::Texture3D::footprint(addressing[level[a]], static_cast<float>(qx - std::floor(qx)),
+                                             static_cast<float>(qy - std::floor(qy)),
+                                             static_cast<float>(qz - std::floor(qz))));
+      }
+      for (std::size_t a = 0; a < nlive; ++a) {
+        const noise::Texture3D* lt = tex_->level(i, level[a]);
+        w.level_tex[t][a] = lt;
+        if (lt) lt->prefetch_bounds(f.block[a]);
       }
       continue;
     }

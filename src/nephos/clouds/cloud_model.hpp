@@ -263,6 +263,9 @@ class CloudShell {
     double log2_voxels_per_m = 0, mean = 0, mean_weighted = 0, top = 0;
     int top_level = 0;
     std::array<double, max_levels> lost_variance{}, hi{};
+    /// Each level's texture addressing (level 0's at the mean level and past it, where no
+    /// texture is read).
+    std::array<noise::Texture3D::Addressing, max_levels> addressing{};
   };
   std::array<TermMips, 3> term_mips_;
   void build_term_mips();

@@ -53,11 +53,27 @@ class Texture3D {
     return 64 * nb * nb * nb;
   }
 
+  /// What locating a voxel reads of a texture: its size, bricks per axis and bounds blocks, so
+  /// that one loop can locate points in textures of several sizes (a mip pyramid's levels).
+  struct Addressing {
+    float fn;              ///< n
+    unsigned mask;         ///< n - 1 (n is a power of two)
+    unsigned nb;           ///< bricks per axis: ceil(n / 3)
+    unsigned block_shift;  ///< log2(voxels per bounds block edge)
+    unsigned blocks;       ///< bounds blocks per axis: n >> block_shift
+  };
+  Addressing addressing() const {
+    return {static_cast<float>(n_), static_cast<unsigned>(n_ - 1), nb_, block_shift_,
+            static_cast<unsigned>(n_) >> block_shift_};
+  }
+
   /// Offset in data() of voxel (i, j, k)'s own copy (in brick (i/3, j/3, k/3); the apron of the
-  /// brick before holds another): the sum of one part per axis.
-  std::uint32_t offset_x(unsigned i) const { return (i / 3u) * 64u + i % 3u; }
-  std::uint32_t offset_y(unsigned j) const { return (j / 3u) * 64u * nb_ + (j % 3u) * 4u; }
-  std::uint32_t offset_z(unsigned k) const { return (k / 3u) * 64u * nb_ * nb_ + (k % 3u) * 16u; }
+  /// brick before holds another): the sum of one part per axis, nb bricks per axis.
+  static std::uint32_t offset_x(unsigned i) { return (i / 3u) * 64u + i % 3u; }
+  static std::uint32_t offset_y(unsigned j, unsigned nb) { return (j / 3u) * 64u * nb + (j % 3u) * 4u; }
+  static std::uint32_t offset_z(unsigned k, unsigned nb) { return (k / 3u) * 64u * nb * nb + (k % 3u) * 16u; }
+  std::uint32_t offset_y(unsigned j) const { return offset_y(j, nb_); }
+  std::uint32_t offset_z(unsigned k) const { return offset_z(k, nb_); }
   std::size_t index(int i, int j, int k) const {
     return std::size_t{offset_x(static_cast<unsigned>(i))} + offset_y(static_cast<unsigned>(j)) +
            offset_z(static_cast<unsigned>(k));
@@ -73,17 +89,17 @@ class Texture3D {
   };
   /// Footprint at texture coordinates (u, v, w) in tile units: 1.0 = one tile; any real value
   /// wraps periodically.
-  Footprint footprint(float u, float v, float w) const {
-    const float fn = static_cast<float>(n_);
-    const float x = u * fn, y = v * fn, z = w * fn;
+  Footprint footprint(float u, float v, float w) const { return footprint(addressing(), u, v, w); }
+  /// footprint() in the texture `a` addresses.
+  static Footprint footprint(const Addressing& a, float u, float v, float w) {
+    const float x = u * a.fn, y = v * a.fn, z = w * a.fn;
     const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
-    const unsigned mask = static_cast<unsigned>(n_ - 1);  // n is a power of two
-    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & mask;
-    const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & mask;
-    const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & mask;
-    const unsigned nb = static_cast<unsigned>(n_) >> block_shift_;
-    const unsigned block = ((z0 >> block_shift_) * nb + (y0 >> block_shift_)) * nb + (x0 >> block_shift_);
-    return {offset_x(x0) + offset_y(y0) + offset_z(z0), block, x - fx, y - fy, z - fz};
+    const unsigned x0 = static_cast<unsigned>(static_cast<int>(fx)) & a.mask;
+    const unsigned y0 = static_cast<unsigned>(static_cast<int>(fy)) & a.mask;
+    const unsigned z0 = static_cast<unsigned>(static_cast<int>(fz)) & a.mask;
+    const unsigned block =
+        ((z0 >> a.block_shift) * a.blocks + (y0 >> a.block_shift)) * a.blocks + (x0 >> a.block_shift);
+    return {offset_x(x0) + offset_y(y0, a.nb) + offset_z(z0, a.nb), block, x - fx, y - fy, z - fz};
   }
   /// Blocks per axis of the bounds grid: 64 (a 512 KiB table whatever the texture size; 4^3
   /// voxels per block at 256^3). Against 32 (8^3 voxels), the tighter bounds decide 24 % more

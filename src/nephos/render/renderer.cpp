@@ -139,7 +139,8 @@ struct MarchScratch {
   // length.
   std::vector<double> a0, la, b0, b1, len;
   std::vector<std::uint8_t> in_shell;
-  // The rays marched (possible cloud on their path), compacted.
+  // The rays marched (possible cloud on their path), compacted; a subset of them (the rays
+  // still refined, or a filtered step's rays that may meet cloud).
   std::vector<std::uint32_t> idx, act;
   std::vector<double> ma0, mla, mb0, ds, dx, dy, dz;
   std::vector<double> v_prev, lo, hi, depth_after;
@@ -347,6 +348,8 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
   double *pts = &w.pts[0].x, *fp = w.footprint.data(), *u_max = w.u_max.data(), *lo = w.lo.data(), *hi = w.hi.data();
   double* soft = w.soft_length.data();
   int *k_hit = w.k_hit.data(), *k_max = w.k_max.data();
+  w.act.resize(nr);
+  std::uint32_t* cloudy = w.act.data();
   w.paths.resize(nr);
   for (std::size_t j = 0; j < nr; ++j) {  // the footprint at the path's middle stands for the whole path
     const double length = ds[j] * steps;
@@ -363,18 +366,27 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
       fp[j] = spread * t;
     }
     shell.classify_filtered(w.pts.data(), w.footprint.data(), nr, w.vals.data());
+#pragma omp simd
     for (std::size_t j = 0; j < nr; ++j) {
       const double u = vals[j];
-      if (u > u_min) {  // else coverage 0
-        const double dl = end_weight * ds[j];
-        soft[j] = std::fma(dl, w.paths[j].add(shell, u, dl), soft[j]);
-      }
       const bool more = u > u_max[j], first = (k_hit[j] < 0) & (u > 0);
       u_max[j] = more ? u : u_max[j];
       k_max[j] = more ? k : k_max[j];
       lo[j] = first ? km1 * ds[j] : lo[j];
       hi[j] = first ? kd * ds[j] : hi[j];
       k_hit[j] = first ? k : k_hit[j];
+    }
+    // The steps that may meet cloud (u > u_min; else coverage 0), compacted branch-free (which
+    // they are is hard to predict), then added to their paths.
+    std::size_t nc = 0;
+    for (std::size_t j = 0; j < nr; ++j) {
+      cloudy[nc] = static_cast<std::uint32_t>(j);
+      nc += vals[j] > u_min;
+    }
+    for (std::size_t c = 0; c < nc; ++c) {
+      const std::uint32_t j = cloudy[c];
+      const double dl = end_weight * ds[j];
+      soft[j] = std::fma(dl, w.paths[j].add(shell, vals[j], dl), soft[j]);
     }
   }
   // Rays that met no crossing but some chance of cloud: a partial hit at their likeliest step,

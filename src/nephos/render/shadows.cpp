@@ -11,7 +11,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   thread_local std::vector<double> t0, t1, px, py, pz, vals, fp;
   thread_local std::vector<clouds::PathCoverage> paths;
   thread_local std::vector<std::uint8_t> possible, found;
-  thread_local std::vector<std::uint32_t> live, owner, first;
+  thread_local std::vector<std::uint32_t> live, owner, first, cloudy;
   thread_local std::vector<earth::Vec3> pts;
   t0.resize(n), t1.resize(n), possible.resize(n);
   const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
@@ -69,7 +69,8 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
       paths[j] = clouds::PathCoverage(fp[j], t1[live[j]] - t0[live[j]]);
     }
   }
-  const double thr = shell.threshold();
+  const double thr = shell.threshold(), u_min = shell.u_min();
+  cloudy.resize(nl);
   for (int k = 0; k < steps; ++k) {
     const double mid = (k + 0.5) / steps;  // the step's midpoint, as a share of the path
     for (std::size_t j = 0; j < nl; ++j) {
@@ -78,7 +79,14 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     }
     if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
       shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
+      // Only steps with u > u_min have any (coverage 0 below), compacted branch-free.
+      std::size_t nc = 0;
       for (std::size_t j = 0; j < nl; ++j) {
+        cloudy[nc] = static_cast<std::uint32_t>(j);
+        nc += vals[j] > u_min;
+      }
+      for (std::size_t c = 0; c < nc; ++c) {
+        const std::uint32_t j = cloudy[c];
         const double ds = (t1[live[j]] - t0[live[j]]) / steps;
         out[live[j]] += ds * paths[j].add(shell, vals[j], ds);
       }
