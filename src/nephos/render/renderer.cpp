@@ -64,6 +64,16 @@ struct PlanckTable {
     const auto i = static_cast<std::size_t>(x);
     return radiance[i] + (x - static_cast<double>(i)) * (radiance[i + 1] - radiance[i]);
   }
+  // Requests the nodes forward(t) reads: ten bands' tables (2.4 MiB) do not stay in L2, and a
+  // pixel's temperature is known well before its radiances are.
+  // Always inlined: GCC 12 finds a separate prefetch() free of side effects and drops its calls.
+  [[gnu::always_inline]] void prefetch(double t) const {
+    const double x = (t - t_lo) / dt;
+    if (x >= 0 && x < static_cast<double>(radiance.size() - 1)) {
+      __builtin_prefetch(radiance.data() + static_cast<std::size_t>(x));
+      __builtin_prefetch(radiance.data() + static_cast<std::size_t>(x) + 1);
+    }
+  }
   // The inverse of n radiances, linear between 0.01 K nodes (error < 1e-5 K): each one's node
   // interval [radiance[i], radiance[i + 1]) stepped to from the first guess (within a few nodes),
   // the guesses' logarithms in a loop that vectorises (core/simd_math.hpp). The interval is
@@ -803,6 +813,8 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double mu_normal = glm::dot(hit.normal, c.sun_dir);
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double t_cloud = c.earth.temperature_k(at, L.altitude);
+  for (std::size_t b = 0; b < nb; ++b)
+    if (c.tables.bands[b]->thermal) c.tables.planck[b]->prefetch(t_cloud);
   const Microphysics m = microphysics(c, si, at, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
@@ -903,6 +915,8 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   const double z = c.earth.ground_height_m(at);
   std::array<double, optics::max_band_count> sky_down{};
   const surface::State ground = c.earth.ground(at, &sky_down);
+  for (std::size_t b = 0; b < c.band_count(); ++b)
+    if (c.tables.bands[b]->thermal) c.tables.planck[b]->prefetch(ground.skin_temperature_k);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(at, z, mu_view, mu_sun, air);
