@@ -12,11 +12,21 @@
 namespace nephos::render {
 namespace {
 // Linear interpolation of v over ascending z at zq, clamped.
-double along(const std::vector<float>& z, const std::vector<float>& v, double zq) {
+// v at zq, linear in z between the levels z (ascending), v's ends beyond them. hint: where a
+// previous query's interval ended (upper_bound's index); a query below it walks down from there
+// (a few levels for a descending profile), any other searches: the same interval either way.
+double along(const std::vector<float>& z, const std::vector<float>& v, double zq, std::size_t* hint = nullptr) {
   if (z.empty()) return 0;
   if (zq <= z.front()) return v.front();
   if (zq >= z.back()) return v.back();
-  const auto hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), static_cast<float>(zq)) - z.begin());
+  const auto zf = static_cast<float>(zq);
+  std::size_t hi;
+  if (hint && *hint > 0 && *hint < z.size() && z[*hint] > zf) {
+    for (hi = *hint; z[hi - 1] > zf; --hi) {}  // upper_bound: the first level above zf
+  } else {
+    hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
+  }
+  if (hint) *hint = hi;
   const double f = (zq - z[hi - 1]) / (z[hi] - z[hi - 1]);
   return v[hi - 1] + f * (v[hi] - v[hi - 1]);
 }
@@ -212,6 +222,17 @@ double EarthView::condensate_g_m3(const Place& s, double z) const {
     if (s.w[q] > 0 && !nodes_[s.node[q]].condensate.empty())
       c += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].condensate, z);
   return c;
+}
+
+void EarthView::condensate_g_m3(const Place& s, const double* z, std::size_t n, double* out) const {
+  for (std::size_t i = 0; i < n; ++i) out[i] = 0;
+  if (!has_condensate_) return;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (!(s.w[q] > 0) || nodes_[s.node[q]].condensate.empty()) continue;
+    std::size_t hint = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      out[i] += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].condensate, z[i], &hint);
+  }
 }
 
 surface::State EarthView::ground(const Place& s, std::array<double, optics::max_band_count>* sky_down) const {

@@ -47,6 +47,10 @@ class EarthView {
   double temperature_k(const Place& at, double z_m) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;
+  /// condensate_g_m3() at n altitudes z_m[0..n) into out, bit for bit: each node's levels
+  /// searched once and walked down from there when the altitudes descend (a cloud's profile
+  /// below its top).
+  void condensate_g_m3(const Place& at, const double* z_m, std::size_t n, double* out) const;
   bool has_condensate() const { return has_condensate_; }
   /// The ground at a place; with sky_down, also the sky's downwelling thermal radiance there per
   /// band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).

@@ -648,8 +648,11 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthVie
   if (c.earth.has_condensate()) {
     // The condensate's mean over the cloud's vertical extent below its top (a top's own value
     // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops).
+    std::array<double, 5> z, q_at;
+    for (std::size_t k = 0; k < z.size(); ++k) z[k] = alt - thickness_m * (static_cast<double>(k) + 0.5) / 5;
+    c.earth.condensate_g_m3(at, z.data(), z.size(), q_at.data());
     double q = 0;
-    for (int k = 0; k < 5; ++k) q += c.earth.condensate_g_m3(at, alt - thickness_m * (k + 0.5) / 5) / 5;
+    for (const double qk : q_at) q += qk / 5;
     if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / std::max(c.scene.shells[si].mask_at(p), 0.1), 0.01, 3.0);
   }
   if (m.phase == optics::Phase::water) {

@@ -14,6 +14,7 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/optics/optics.hpp"
+#include "nephos/render/earth_view.hpp"
 #include "nephos/render/job.hpp"
 #include "nephos/render/shadows.hpp"
 #include "nephos/weather/reader.hpp"
@@ -58,6 +59,43 @@ CloudShell layered_shell(double bias, double a_scale = 1.0, float mask = 1.0f, d
 }
 
 }  // namespace
+
+// The altitude barriers are tabulated from 1 km below the shell's bottom to 1 km above its
+// top, their closed form beyond, and beyond the tables a barrier's end value bounds it. With a
+// weak barrier (A = 1e-4) the cloud function
+// CF = b + 1 - A exp(-(alt - 1000)/200) - A exp((alt - 3000)/400) exceeds the threshold 0.5 by
+// at most e = b + 0.5, and crosses it beyond the tables: e = 0.005 puts the top crossing
+// 400 ln(e/A) = 1565 m above the top, where that margin is below the bottom table's end value
+// A e^5 = 0.0148; e = 0.02 puts the bottom crossing 200 ln(e/A) = 1060 m below the bottom. Point
+// and filtered classification (without fractals the filtered u is the verdict's sign) find
+// cloud exactly where the formula puts it, in 5 m steps from 2.5 km below the bottom to 3 km
+// above the top (the nearest step is 2.4e-6 of CF from the threshold; the tables' float
+// rounding and 1 m interpolation are ~1e-8).
+TEST(Marcher, CloudBeyondTheBarrierTablesIsWhereTheFormulaPutsIt) {
+  const double a = 1e-4;
+  const earth::Vec3 up = earth::unit_from_latlon(-20, 75);
+  for (const double e : {0.005, 0.02}) {
+    const CloudShell s = layered_shell(e - 0.5, a);
+    std::vector<earth::Vec3> p;
+    std::vector<double> alts, cf;
+    for (double alt = -1500; alt <= 6000; alt += 5) {
+      p.push_back((earth::radius_m + alt) * up);
+      alts.push_back(alt);
+      cf.push_back(e + 0.5 - a * std::exp(-(alt - 1000) / 200) - a * std::exp((alt - 3000) / 400));
+    }
+    const std::vector<double> footprint(p.size(), 500.0);
+    std::vector<double> v(p.size()), u(p.size());
+    s.classify(p.data(), p.size(), v.data());
+    s.classify_filtered(p.data(), footprint.data(), p.size(), u.data());
+    int beyond = 0;  // cloud beyond the tables' ends
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      EXPECT_EQ(v[i] > 0.5, cf[i] > 0.5) << "e " << e << ", at " << alts[i] << " m";
+      EXPECT_EQ(u[i] > 0, cf[i] > 0.5) << "e " << e << ", filtered, at " << alts[i] << " m";
+      beyond += cf[i] > 0.5 && (alts[i] < 0 || alts[i] > 4000);
+    }
+    EXPECT_GT(beyond, 5) << "e " << e;
+  }
+}
 
 TEST(Marcher, HomogeneousSlabDepthIsTheChord) {
   // CF = 2 everywhere (no barriers): the whole shell is cloud. A vertical ray crosses exactly
@@ -687,6 +725,32 @@ TEST(RendererOnGfs, FilteringRemovesMostOfTheAliasing) {
   EXPECT_LT(rms(f, false), 0.6 * rms(p, false));
   EXPECT_LT(rms(f, true), 0.6 * rms(p, true));
   EXPECT_NEAR(mean_fraction(f), mean_fraction(ref), 0.01);
+}
+
+// The condensate profile below a cloud top (EarthView's batched lookup, each node's levels
+// searched once and walked from there) equals point-by-point lookups, bit for bit, for
+// altitudes in any order, at places over the whole globe; and GFS's condensate is there to find.
+TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
+  const auto& r = real();
+  const EarthView ev(&r.w, Sensor::geostationary(-75.2, 8, 8), earth::sun_position(r.w.metadata().valid_time),
+                     {&optics::band("lwir")}, false);
+  ASSERT_TRUE(ev.has_condensate());
+  std::size_t wet = 0, checked = 0;
+  for (int j = 0; j < 37; ++j)
+    for (int i = 0; i < 72; ++i) {
+      const EarthView::Place at = ev.place(-88.5 + 4.9 * j, -179 + 4.97 * i);
+      const double top = 300.0 * ((i + 3 * j) % 40);  // 0 .. 11.7 km, below the ground to the tropopause
+      std::array<double, 7> z{}, batched{};
+      for (std::size_t k = 0; k < z.size(); ++k) z[k] = top - 450.0 * static_cast<double>(k);  // descending
+      if ((i + j) % 3 == 1) std::reverse(z.begin(), z.end());  // ascending
+      if ((i + j) % 3 == 2) std::swap(z[1], z[5]), std::swap(z[2], z[6]);
+      ev.condensate_g_m3(at, z.data(), z.size(), batched.data());
+      for (std::size_t k = 0; k < z.size(); ++k) {
+        EXPECT_EQ(batched[k], ev.condensate_g_m3(at, z[k])) << "at row " << j << ", column " << i << ", z " << z[k];
+        wet += batched[k] > 1e-3, ++checked;
+      }
+    }
+  EXPECT_GT(wet, checked / 50) << "GFS's condensate was not found";
 }
 
 // The quick start's scene (every type, the default model but 128^3 textures for the test's time)
