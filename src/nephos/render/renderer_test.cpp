@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
 #include "nephos/core/parallel.hpp"
 #include "nephos/optics/optics.hpp"
 #include "nephos/render/earth_view.hpp"
@@ -799,6 +800,58 @@ TEST(RendererOnGfs, OpaqueCloudsShowTheirTopsTemperature) {
 }  // namespace nephos::render
 
 namespace nephos::render {
+
+// What a filtered shadow ray must give: the mean, over the rays of its footprint, of the length
+// of cloud along them, here by brute force (144 parallel rays in a w x w bundle, each
+// point-sampled at 240 steps), against cloud_length_towards() with the footprint (its 12
+// filtered steps, the shadows' count at 25 view steps). Low cumulus (barriers on) at 64^3,
+// masks 0.1/0.3/0.6, footprints 2 and 8 km, the Sun overhead and 60 deg from it, 40 places
+// each. The filter's coverage is the footprint's share of cloud at each step (an approximation,
+// see CloudShell.FilteredCoverageIsTheFootprintsShareOfCloudyPoints), so the lengths agree to
+// its accuracy: measured -24 % to 0 % (short where cloud is sparse: mask 0.1 -20 %, 0.6 -2 %),
+// mean |error| 10 %; bounds 30 % each, 15 % on the mean. Fault caught: steps whose filtered
+// distance lies between u_min and 0 left out (-30 % to -100 %, mean 75 %).
+TEST(Shadows, AFilteredShadowRaysLengthIsItsFootprintsMean) {
+  const auto& defaults = clouds::CloudModelParams();
+  auto tex = std::make_shared<const clouds::FractalTextures>(clouds::FractalTextures::from(
+      noise::bake(defaults.coarse, 1, 64), noise::bake(defaults.fine, 2, 64), noise::bake(defaults.worley, 3, 64)));
+  double sum_error = 0;
+  int configs = 0;
+  for (double zenith_deg : {0.0, 60.0})
+    for (float mask : {0.1f, 0.3f, 0.6f}) {
+      auto cube = std::make_shared<clouds::CubeMap<float>>(4);
+      for (auto& v : cube->data()) v = mask;
+      const CloudShell s(weather::CloudType::low_cumulus, defaults[weather::CloudType::low_cumulus], tex, cube,
+                         std::vector<clouds::DisplacementMap>(4));
+      for (double w : {2000.0, 8000.0}) {
+        constexpr int places = 40, side = 12;
+        double truth = 0, model = 0;
+        std::vector<earth::Vec3> bundle(side * side);
+        std::vector<double> len(bundle.size());
+        for (int li = 0; li < places; ++li) {
+          const earth::Vec3 up = earth::unit_from_latlon(-60 + 120 * uniform01(9, li, 0), -180 + 360 * uniform01(9, li, 1));
+          const earth::Vec3 e1 = glm::normalize(glm::cross(up, earth::Vec3{0, 0, 1})), e2 = glm::cross(up, e1);
+          const earth::Vec3 sun = std::cos(zenith_deg * earth::deg) * up + std::sin(zenith_deg * earth::deg) * e1;
+          const earth::Vec3 ground = up * earth::radius_m;
+          for (int a = 0; a < side; ++a)
+            for (int b = 0; b < side; ++b)
+              bundle[a * side + b] = ground + w * (((a + 0.5) / side - 0.5) * e1 + ((b + 0.5) / side - 0.5) * e2);
+          cloud_length_towards(s, bundle.data(), sun, bundle.size(), 240, len.data());
+          for (const double l : len) truth += l / static_cast<double>(bundle.size());
+          double filtered = 0;
+          cloud_length_towards(s, &ground, sun, 1, 12, &filtered, &w);
+          model += filtered;
+        }
+        std::printf("[ measured ] zenith %2.0f deg, mask %.1f, footprint %5.0f m: mean length, rays %.0f m, filtered "
+                    "%.0f m\n",
+                    zenith_deg, mask, w, truth / places, model / places);
+        EXPECT_NEAR(model, truth, 0.3 * truth) << zenith_deg << " deg, mask " << mask << ", " << w << " m";
+        sum_error += std::abs(model - truth) / truth, ++configs;
+      }
+    }
+  std::printf("[ measured ] mean |error| %.3f\n", sum_error / configs);
+  EXPECT_LT(sum_error / configs, 0.15);
+}
 
 // A cloud's shadow lies h tan(zenith) beyond it, on the side away from the Sun: a layer from 1
 // to 3 km west of an edge (the mask 1 west of longitude 0, 0 east; a 1024^2-per-face cube map,
