@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -13,6 +14,7 @@
 
 #include "nephos/atmosphere/nnls.hpp"
 #include "nephos/core/error.hpp"
+#include "nephos/core/simd_math.hpp"
 
 namespace nephos::atmosphere {
 
@@ -35,11 +37,17 @@ const char* name(Gas g) {
 }
 
 double ExpSum::transmittance(double w_scaled) const {
-  if (n == 0) return 1.0;
-  double t = 0;
-  for (int i = 0; i < n; ++i)
-    t += w[static_cast<std::size_t>(i)] * std::exp(-k[static_cast<std::size_t>(i)] * w_scaled);
+  double t;
+  transmittances(&w_scaled, 1, &t);
   return t;
+}
+
+void ExpSum::transmittances(const double* a, std::size_t count, double* out) const {
+  for (std::size_t j = 0; j < count; ++j) out[j] = n == 0 ? 1.0 : 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double wi = w[static_cast<std::size_t>(i)], ki = k[static_cast<std::size_t>(i)];
+    for (std::size_t j = 0; j < count; ++j) out[j] += wi * std::exp(-ki * a[j]);
+  }
 }
 
 namespace {

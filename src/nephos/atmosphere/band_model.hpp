@@ -33,6 +33,9 @@ struct ExpSum {
   int n = 0;  ///< 0: the gas does not absorb here
   std::array<double, max_terms> k{}, w{};
   double transmittance(double scaled_amount) const;
+  /// transmittance() of `count` scaled amounts into out (the same sums, in a loop over the
+  /// amounts that vectorises).
+  void transmittances(const double* scaled_amounts, std::size_t count, double* out) const;
 };
 
 /// One sub-band of a sensor band.

@@ -42,8 +42,10 @@ LayerOptics layer_optics(const Profile& p, std::size_t a, std::size_t b, const S
   u[static_cast<std::size_t>(Gas::n2o)] = n2o_vmr * molecules_m2 / atm_cm_m2;
   u[static_cast<std::size_t>(Gas::ch4)] = ch4_vmr * molecules_m2 / atm_cm_m2;
   u[static_cast<std::size_t>(Gas::o2)] = o2_vmr * molecules_m2 / atm_cm_m2;
+  // (P/P0)^n (T0/T)^m as one exponential per gas, the logarithms shared.
+  const double log_p = std::log(pm / p0), log_t = std::log(t0 / tm);
   for (std::size_t g = 0; g < gas_count; ++g)
-    if (s.gas[g].n > 0) l.w[g] = u[g] * std::pow(pm / p0, s.n[g]) * std::pow(t0 / tm, s.m[g]);
+    if (s.gas[g].n > 0) l.w[g] = u[g] * std::exp(s.n[g] * log_p + s.m[g] * log_t);
   // Water-vapour continuum (CKD): tau = R(nu, T) C~(nu, T) (rho / rho0) N_w, R = nu tanh(hc nu / 2kT).
   const double nu = 1e4 / s.wavelength_um;
   const double radiation = nu * std::tanh(c2_cm_k * nu / (2 * tm));
@@ -84,12 +86,40 @@ Profile below_sensor(const Profile& p, double z_s) {
   return q;
 }
 
-// Transmittance of a path with scaled amounts w (per gas) and continuum tau, air mass m.
-double path_transmittance(const SubBand& s, const std::array<double, gas_count>& w, double tau, double m) {
-  double t = std::exp(-tau * m);
-  for (std::size_t g = 0; g < gas_count; ++g)
-    if (s.gas[g].n > 0 && w[g] > 0) t *= s.gas[g].transmittance(w[g] * m);
-  return t;
+// The cumulative amounts of paths through a column's layers: path k crosses layers k..last
+// (from_top: a path down from the top) or 0..k (a path up from the bottom).
+struct PathAmounts {
+  std::array<std::vector<double>, gas_count> w;  // scaled amount per gas
+  std::vector<double> tau;                       // continuum optical depth
+  void accumulate(const std::vector<LayerOptics>& layers, bool from_top) {
+    const std::size_t n = layers.size();
+    for (auto& v : w) v.resize(n);
+    tau.resize(n);
+    std::array<double, gas_count> sum{};
+    double tau_sum = 0;
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::size_t k = from_top ? n - 1 - j : j;
+      for (std::size_t g = 0; g < gas_count; ++g) sum[g] += layers[k].w[g], w[g][k] = sum[g];
+      tau_sum += layers[k].tau_cont, tau[k] = tau_sum;
+    }
+  }
+};
+
+// The transmittance of every path of `a` at air mass m into t: the continuum's exponential
+// times each absorbing gas's fitted transmittance, in gas order; each gas's over all the paths
+// at once (ExpSum::transmittances). scaled, gas_t: scratch.
+void path_transmittances(const SubBand& s, const PathAmounts& a, double m, std::vector<double>& t,
+                         std::vector<double>& scaled, std::vector<double>& gas_t) {
+  const std::size_t n = a.tau.size();
+  t.resize(n), scaled.resize(n), gas_t.resize(n);
+  for (std::size_t k = 0; k < n; ++k) t[k] = std::exp(-a.tau[k] * m);
+  for (std::size_t g = 0; g < gas_count; ++g) {
+    if (s.gas[g].n == 0) continue;
+    for (std::size_t k = 0; k < n; ++k) scaled[k] = a.w[g][k] * m;
+    s.gas[g].transmittances(scaled.data(), n, gas_t.data());
+    for (std::size_t k = 0; k < n; ++k)
+      if (a.w[g][k] > 0) t[k] *= gas_t[k];
+  }
 }
 
 double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
@@ -104,14 +134,14 @@ double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
 // (ClearSkyColumn::sky_down), from its layers (bottom first) and their Planck radiances:
 // upwards, B(T_layer) times the drop in the diffuse transmittance from the bottom across it.
 double sky_down_part(const SubBand& s, const std::vector<LayerOptics>& layers, const std::vector<double>& planck) {
-  std::array<double, gas_count> w{};
-  double tau = 0, t_below = 1, radiance = 0;
+  PathAmounts a;
+  a.accumulate(layers, false);
+  std::vector<double> t, scaled, gas_t;
+  path_transmittances(s, a, diffusivity_air_mass, t, scaled, gas_t);
+  double t_below = 1, radiance = 0;
   for (std::size_t k = 0; k < layers.size(); ++k) {
-    for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += layers[k].w[gi];
-    tau += layers[k].tau_cont;
-    const double t_here = path_transmittance(s, w, tau, diffusivity_air_mass);
-    radiance += planck[k] * (t_below - t_here);
-    t_below = t_here;
+    radiance += planck[k] * (t_below - t[k]);
+    t_below = t[k];
   }
   return s.weight * radiance;
 }
@@ -174,7 +204,8 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
   // The sky above the ground is all the air, whether or not the sensor is inside it.
   const bool whole = g.sensor_altitude_m >= full.z_m.back();
   std::vector<LayerOptics> layers, sky_layers;
-  std::vector<double> planck, sky_planck;
+  std::vector<double> planck, sky_planck, t_view, t_solar, scaled, gas_t;
+  PathAmounts down;
   for (const SubBand& s : gas_model(b).sub) {
     column_layers(p, s, b.thermal, layers, planck);
     if (b.thermal) {
@@ -182,21 +213,20 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
       c.sky_down += whole ? sky_down_part(s, layers, planck) : sky_down_part(s, sky_layers, sky_planck);
     }
     // Downwards from the sensor (the top level): cumulative amounts, transmittance, emission.
-    std::array<double, gas_count> w{};
-    double tau = 0, t_above = 1, radiance = 0;
+    down.accumulate(layers, true);
+    path_transmittances(s, down, m_v, t_view, scaled, gas_t);
+    const bool sunward = solar && g.sun_air_mass > 0;
+    if (sunward) path_transmittances(s, down, m_2, t_solar, scaled, gas_t);
+    double t_above = 1, radiance = 0;
     c.t_view[nl - 1] += static_cast<float>(s.weight);
     c.t_solar[nl - 1] += static_cast<float>(s.weight);
     for (std::size_t k = nl - 1; k-- > 0;) {
-      const LayerOptics& l = layers[k];
-      for (std::size_t gi = 0; gi < gas_count; ++gi) w[gi] += l.w[gi];
-      tau += l.tau_cont;
-      const double t_here = path_transmittance(s, w, tau, m_v);
+      const double t_here = t_view[k];
       if (b.thermal) radiance += planck[k] * (t_above - t_here);
       t_above = t_here;
       c.t_view[k] += static_cast<float>(s.weight * t_here);
       c.path_radiance[k] += static_cast<float>(s.weight * radiance);
-      if (solar && g.sun_air_mass > 0)
-        c.t_solar[k] += static_cast<float>(s.weight * path_transmittance(s, w, tau, m_2));
+      if (sunward) c.t_solar[k] += static_cast<float>(s.weight * t_solar[k]);
     }
   }
   return c;
