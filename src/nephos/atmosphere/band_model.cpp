@@ -269,9 +269,16 @@ BandGasModel build(const optics::Band& band) {
 const BandGasModel& gas_model(const optics::Band& band) {
   static std::mutex mutex;
   static std::map<std::string, std::unique_ptr<const BandGasModel>> models;
+  {
+    const std::lock_guard lock(mutex);
+    if (const auto it = models.find(band.name); it != models.end()) return *it->second;
+  }
+  // Fitted outside the lock, so that threads fit different bands at once; a band fitted twice
+  // meanwhile keeps its first model (the fits are deterministic: the same).
+  auto fitted = std::make_unique<const BandGasModel>(build(band));
   const std::lock_guard lock(mutex);
   auto& model = models[band.name];
-  if (!model) model = std::make_unique<const BandGasModel>(build(band));
+  if (!model) model = std::move(fitted);
   return *model;
 }
 

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "nephos/atmosphere/band_model.hpp"
 #include "nephos/atmosphere/profile.hpp"
 #include "nephos/core/simd_math.hpp"
 #include "nephos/earth/earth.hpp"
@@ -49,6 +50,11 @@ EarthView::EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, 
   }
   const std::size_t n = grid_.size();
   nodes_.resize(n);
+  // The bands' gas models, fitted once per process, a band per thread (~0.1 s each).
+  if (atmosphere_) {
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t b = 0; b < bands_.size(); ++b) atmosphere::gas_model(*bands_[b]);
+  }
 #pragma omp parallel for schedule(dynamic, 16)
   for (std::size_t k = 0; k < n; ++k)
     build_node(k, static_cast<int>(k / static_cast<std::size_t>(grid_.nlon)),
