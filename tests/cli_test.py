@@ -985,7 +985,8 @@ class Bench(unittest.TestCase):
     def test_render_bench_smoke(self):
         r = run("bench", "render", "--quick", "--repeat", "1")
         self.assertEqual(r.returncode, 0, r.stderr)
-        for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view", "per marched ray", "CPU: ", "built for"):
+        for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view", "per marched ray", "CPU: ", "built for",
+                       "interleaved pairs", "(goal <= 1.30", "(goal <= 17)", "(goal <= 60 s)"):
             self.assertIn(anchor, r.stdout)
         # Every cloud type and their mean, the measure of the seed's table (an average per shell).
         every = next(l for l in r.stdout.splitlines() if l.startswith("every cloud type"))
