@@ -90,7 +90,7 @@ struct ShellHit {
 
 /// Below this share of a pixel's cone in cloud, a filtered march's partial hit is kept at random
 /// in proportion (march_shell).
-constexpr double roulette_coverage = 0.15;
+constexpr double roulette_coverage = 0.3;
 
 /// Marches one shell along o + t d up to t_max (the Earth's surface or infinity).
 ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3& d, double t_max,
