@@ -669,9 +669,8 @@ template <bool Filtered>
       const auto ib = static_cast<std::size_t>(xb), it = static_cast<std::size_t>(xt);
       bar = bb[ib] + (xb - static_cast<double>(ib)) * (bb[ib + 1] - bb[ib]) + bt[it] +
             (xt - static_cast<double>(it)) * (bt[it + 1] - bt[it]);
-    } else if (Filtered && smooth - beyond_ends * ((xb < 0 ? bb[0] : 0.0) + (xt > bt_last ? bt[bt_end] : 0.0)) +
-                                   fractal_max_ <
-                               thr + margin) {
+    } else if (Filtered && smooth - beyond_ends * ((xb < 0 ? bb[0] : 0.0) + (xt > bt_last ? bt[bt_end] : 0.0)) <
+                               thr + margin - fractal_max_) {
       // Beyond a table's end its barrier exceeds the end value (both barriers are positive and
       // monotone; beyond_ends covers the values' float rounding): a filtered point this bound
       // puts out of reach takes u_min whatever its exact barrier, found without exp.

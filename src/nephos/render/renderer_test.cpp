@@ -744,7 +744,7 @@ TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
       const double top = 300.0 * ((i + 3 * j) % 40);  // 0 .. 11.7 km, below the ground to the tropopause
       std::array<double, 7> z{}, batched{};
       for (std::size_t k = 0; k < z.size(); ++k) z[k] = top - 450.0 * static_cast<double>(k);  // descending
-      if ((i + j) % 3 == 1) std::reverse(z.begin(), z.end());  // ascending
+      if ((i + j) % 3 == 1) std::reverse(z.begin(), z.end());                                  // ascending
       if ((i + j) % 3 == 2) std::swap(z[1], z[5]), std::swap(z[2], z[6]);
       ev.condensate_g_m3(at, z.data(), z.size(), batched.data());
       for (std::size_t k = 0; k < z.size(); ++k) {
@@ -830,7 +830,8 @@ TEST(Shadows, AFilteredShadowRaysLengthIsItsFootprintsMean) {
         std::vector<earth::Vec3> bundle(side * side);
         std::vector<double> len(bundle.size());
         for (int li = 0; li < places; ++li) {
-          const earth::Vec3 up = earth::unit_from_latlon(-60 + 120 * uniform01(9, li, 0), -180 + 360 * uniform01(9, li, 1));
+          const earth::Vec3 up =
+              earth::unit_from_latlon(-60 + 120 * uniform01(9, li, 0), -180 + 360 * uniform01(9, li, 1));
           const earth::Vec3 e1 = glm::normalize(glm::cross(up, earth::Vec3{0, 0, 1})), e2 = glm::cross(up, e1);
           const earth::Vec3 sun = std::cos(zenith_deg * earth::deg) * up + std::sin(zenith_deg * earth::deg) * e1;
           const earth::Vec3 ground = up * earth::radius_m;
@@ -843,9 +844,10 @@ TEST(Shadows, AFilteredShadowRaysLengthIsItsFootprintsMean) {
           cloud_length_towards(s, &ground, sun, 1, 12, &filtered, &w);
           model += filtered;
         }
-        std::printf("[ measured ] zenith %2.0f deg, mask %.1f, footprint %5.0f m: mean length, rays %.0f m, filtered "
-                    "%.0f m\n",
-                    zenith_deg, mask, w, truth / places, model / places);
+        std::printf(
+            "[ measured ] zenith %2.0f deg, mask %.1f, footprint %5.0f m: mean length, rays %.0f m, filtered "
+            "%.0f m\n",
+            zenith_deg, mask, w, truth / places, model / places);
         EXPECT_NEAR(model, truth, 0.3 * truth) << zenith_deg << " deg, mask " << mask << ", " << w << " m";
         sum_error += std::abs(model - truth) / truth, ++configs;
       }
