@@ -379,6 +379,19 @@ class PathCoverage {
   std::array<double, CloudShell::z_node_count> shift_{}, log_clear_{};
 };
 
+/// The indices j < n of the filtered distances u[j] (CloudShell::classify_filtered) above
+/// s.u_min(), the steps with any coverage, into idx in order, compacted without branches (which
+/// they are is hard to predict); returns their count.
+inline std::size_t steps_with_cover(const CloudShell& s, const double* u, std::size_t n, std::uint32_t* idx) {
+  const double u_min = s.u_min();
+  std::size_t count = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    idx[count] = static_cast<std::uint32_t>(j);
+    count += u[j] > u_min;
+  }
+  return count;
+}
+
 /// The tables of a configuration file the cloud model and the masks read: [clouds.*],
 /// [textures], [displacement] and [masks.*] / [cloud_fraction].
 struct ModelConfig {

@@ -352,7 +352,7 @@ void march_steps(const clouds::CloudShell& shell, const earth::Vec3& o, int step
 // and the chance of meeting any (clouds::PathCoverage: the cone's cloud fraction).
 void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o, int steps, double spread,
                           std::size_t nr, MarchScratch& w) {
-  const double ox = o.x, oy = o.y, oz = o.z, u_min = shell.u_min();
+  const double ox = o.x, oy = o.y, oz = o.z;
   const double *ma0 = w.ma0.data(), *mla = w.mla.data(), *mb0 = w.mb0.data(), *ds = w.ds.data();
   const double *rdx = w.dx.data(), *rdy = w.dy.data(), *rdz = w.dz.data(), *vals = w.vals.data();
   double *pts = &w.pts[0].x, *fp = w.footprint.data(), *u_max = w.u_max.data(), *lo = w.lo.data(), *hi = w.hi.data();
@@ -386,13 +386,8 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
       hi[j] = first ? kd * ds[j] : hi[j];
       k_hit[j] = first ? k : k_hit[j];
     }
-    // The steps that may meet cloud (u > u_min; else coverage 0), compacted branch-free (which
-    // they are is hard to predict), then added to their paths.
-    std::size_t nc = 0;
-    for (std::size_t j = 0; j < nr; ++j) {
-      cloudy[nc] = static_cast<std::uint32_t>(j);
-      nc += vals[j] > u_min;
-    }
+    // The steps with any coverage added to their paths.
+    const std::size_t nc = clouds::steps_with_cover(shell, vals, nr, cloudy);
     for (std::size_t c = 0; c < nc; ++c) {
       const std::uint32_t j = cloudy[c];
       const double dl = end_weight * ds[j];

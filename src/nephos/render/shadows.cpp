@@ -69,7 +69,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
       paths[j] = clouds::PathCoverage(fp[j], t1[live[j]] - t0[live[j]]);
     }
   }
-  const double thr = shell.threshold(), u_min = shell.u_min();
+  const double thr = shell.threshold();
   cloudy.resize(nl);
   for (int k = 0; k < steps; ++k) {
     const double mid = (k + 0.5) / steps;  // the step's midpoint, as a share of the path
@@ -79,12 +79,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     }
     if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
       shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
-      // Only steps with u > u_min have any (coverage 0 below), compacted branch-free.
-      std::size_t nc = 0;
-      for (std::size_t j = 0; j < nl; ++j) {
-        cloudy[nc] = static_cast<std::uint32_t>(j);
-        nc += vals[j] > u_min;
-      }
+      const std::size_t nc = clouds::steps_with_cover(shell, vals.data(), nl, cloudy.data());
       for (std::size_t c = 0; c < nc; ++c) {
         const std::uint32_t j = cloudy[c];
         const double ds = (t1[live[j]] - t0[live[j]]) / steps;
