@@ -105,20 +105,28 @@ struct PathAmounts {
   }
 };
 
-// The transmittance of every path of `a` at air mass m into t: the continuum's exponential
-// times each absorbing gas's fitted transmittance, in gas order; each gas's over all the paths
-// at once (ExpSum::transmittances). scaled, gas_t: scratch.
-void path_transmittances(const SubBand& s, const PathAmounts& a, double m, std::vector<double>& t,
-                         std::vector<double>& scaled, std::vector<double>& gas_t) {
+// A column's paths and their transmittances, kept across its sub-bands (no allocation per
+// sub-band): the amounts, the transmittances along the view (or the diffuse sky's) and the Sun's
+// paths, and scratch.
+struct PathWork {
+  PathAmounts amounts;
+  std::vector<double> t, t_sun, scaled, gas_t;
+};
+
+// The transmittance of every path of w.amounts at air mass m into t: the continuum's
+// exponential times each absorbing gas's fitted transmittance, in gas order; each gas's over all
+// the paths at once (ExpSum::transmittances).
+void path_transmittances(const SubBand& s, double m, std::vector<double>& t, PathWork& w) {
+  const PathAmounts& a = w.amounts;
   const std::size_t n = a.tau.size();
-  t.resize(n), scaled.resize(n), gas_t.resize(n);
+  t.resize(n), w.scaled.resize(n), w.gas_t.resize(n);
   for (std::size_t k = 0; k < n; ++k) t[k] = std::exp(-a.tau[k] * m);
   for (std::size_t g = 0; g < gas_count; ++g) {
     if (s.gas[g].n == 0) continue;
-    for (std::size_t k = 0; k < n; ++k) scaled[k] = a.w[g][k] * m;
-    s.gas[g].transmittances(scaled.data(), n, gas_t.data());
+    for (std::size_t k = 0; k < n; ++k) w.scaled[k] = a.w[g][k] * m;
+    s.gas[g].transmittances(w.scaled.data(), n, w.gas_t.data());
     for (std::size_t k = 0; k < n; ++k)
-      if (a.w[g][k] > 0) t[k] *= gas_t[k];
+      if (a.w[g][k] > 0) t[k] *= w.gas_t[k];
   }
 }
 
@@ -132,16 +140,16 @@ double band_rayleigh_tau(const optics::Band& b, double p_pa, double lat) {
 
 // One sub-band's share of the sky's downwelling thermal radiance at the bottom of a column
 // (ClearSkyColumn::sky_down), from its layers (bottom first) and their Planck radiances:
-// upwards, B(T_layer) times the drop in the diffuse transmittance from the bottom across it.
-double sky_down_part(const SubBand& s, const std::vector<LayerOptics>& layers, const std::vector<double>& planck) {
-  PathAmounts a;
-  a.accumulate(layers, false);
-  std::vector<double> t, scaled, gas_t;
-  path_transmittances(s, a, diffusivity_air_mass, t, scaled, gas_t);
+// upwards, B(T_layer) times the drop in the diffuse transmittance from the bottom across it
+// (w: the column's path work, reused).
+double sky_down_part(const SubBand& s, const std::vector<LayerOptics>& layers, const std::vector<double>& planck,
+                     PathWork& w) {
+  w.amounts.accumulate(layers, false);
+  path_transmittances(s, diffusivity_air_mass, w.t, w);
   double t_below = 1, radiance = 0;
   for (std::size_t k = 0; k < layers.size(); ++k) {
-    radiance += planck[k] * (t_below - t[k]);
-    t_below = t[k];
+    radiance += planck[k] * (t_below - w.t[k]);
+    t_below = w.t[k];
   }
   return s.weight * radiance;
 }
@@ -204,19 +212,20 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
   // The sky above the ground is all the air, whether or not the sensor is inside it.
   const bool whole = g.sensor_altitude_m >= full.z_m.back();
   std::vector<LayerOptics> layers, sky_layers;
-  std::vector<double> planck, sky_planck, t_view, t_solar, scaled, gas_t;
-  PathAmounts down;
+  std::vector<double> planck, sky_planck;
+  PathWork w;
   for (const SubBand& s : gas_model(b).sub) {
     column_layers(p, s, b.thermal, layers, planck);
     if (b.thermal) {
       if (!whole) column_layers(full, s, true, sky_layers, sky_planck);
-      c.sky_down += whole ? sky_down_part(s, layers, planck) : sky_down_part(s, sky_layers, sky_planck);
+      c.sky_down += whole ? sky_down_part(s, layers, planck, w) : sky_down_part(s, sky_layers, sky_planck, w);
     }
     // Downwards from the sensor (the top level): cumulative amounts, transmittance, emission.
-    down.accumulate(layers, true);
-    path_transmittances(s, down, m_v, t_view, scaled, gas_t);
+    w.amounts.accumulate(layers, true);
+    path_transmittances(s, m_v, w.t, w);
     const bool sunward = solar && g.sun_air_mass > 0;
-    if (sunward) path_transmittances(s, down, m_2, t_solar, scaled, gas_t);
+    if (sunward) path_transmittances(s, m_2, w.t_sun, w);
+    const std::vector<double>& t_view = w.t;
     double t_above = 1, radiance = 0;
     c.t_view[nl - 1] += static_cast<float>(s.weight);
     c.t_solar[nl - 1] += static_cast<float>(s.weight);
@@ -226,7 +235,7 @@ ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, cons
       t_above = t_here;
       c.t_view[k] += static_cast<float>(s.weight * t_here);
       c.path_radiance[k] += static_cast<float>(s.weight * radiance);
-      if (sunward) c.t_solar[k] += static_cast<float>(s.weight * t_solar[k]);
+      if (sunward) c.t_solar[k] += static_cast<float>(s.weight * w.t_sun[k]);
     }
   }
   return c;

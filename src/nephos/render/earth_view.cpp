@@ -23,8 +23,8 @@ double along(const std::vector<float>& z, const std::vector<float>& v, double zq
   const auto zf = static_cast<float>(zq);
   std::size_t hi;
   if (hint && *hint > 0 && *hint < z.size() && z[*hint] > zf) {
-    for (hi = *hint; z[hi - 1] > zf; --hi) {
-    }  // upper_bound: the first level above zf
+    hi = *hint;
+    while (z[hi - 1] > zf) --hi;  // upper_bound: the first level above zf
   } else {
     hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
   }

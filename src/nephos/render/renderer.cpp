@@ -65,8 +65,8 @@ struct PlanckTable {
     return radiance[i] + (x - static_cast<double>(i)) * (radiance[i + 1] - radiance[i]);
   }
   // Requests the nodes forward(t) reads: ten bands' tables (2.4 MiB) do not stay in L2, and a
-  // pixel's temperature is known well before its radiances are.
-  // Always inlined: GCC 12 finds a separate prefetch() free of side effects and drops its calls.
+  // pixel's temperature is known well before its radiances are. Always inlined: GCC 12 finds a
+  // separate prefetch() free of side effects and drops its calls.
   [[gnu::always_inline]] void prefetch(double t) const {
     const double x = (t - t_lo) / dt;
     if (x >= 0 && x < static_cast<double>(radiance.size() - 1)) {
