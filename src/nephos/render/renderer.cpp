@@ -548,6 +548,11 @@ struct BandTables {
       planck.push_back(&planck_table(*bands.back()));
     }
   }
+  /// Requests every thermal band's Planck nodes at temperature t_k (PlanckTable::prefetch).
+  [[gnu::always_inline]] void prefetch_planck(double t_k) const {
+    for (std::size_t b = 0; b < bands.size(); ++b)
+      if (bands[b]->thermal) planck[b]->prefetch(t_k);
+  }
 };
 
 // Where one pass of sub-pixel rays crosses each pixel: sub-pixel (i, j) of a k x k grid, at
@@ -811,8 +816,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double mu_normal = glm::dot(hit.normal, c.sun_dir);
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double t_cloud = c.earth.temperature_k(at, L.altitude);
-  for (std::size_t b = 0; b < nb; ++b)
-    if (c.tables.bands[b]->thermal) c.tables.planck[b]->prefetch(t_cloud);
+  c.tables.prefetch_planck(t_cloud);
   const Microphysics m = microphysics(c, si, at, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
@@ -913,8 +917,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   const double z = c.earth.ground_height_m(at);
   std::array<double, optics::max_band_count> sky_down{};
   const surface::State ground = c.earth.ground(at, &sky_down);
-  for (std::size_t b = 0; b < c.band_count(); ++b)
-    if (c.tables.bands[b]->thermal) c.tables.planck[b]->prefetch(ground.skin_temperature_k);
+  c.tables.prefetch_planck(ground.skin_temperature_k);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(at, z, mu_view, mu_sun, air);
