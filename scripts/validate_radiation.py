@@ -1,29 +1,30 @@
 #!/usr/bin/python3
 """nephos's top-of-atmosphere radiation against GFS's own, on the GFS grid (docs/VALIDATION.md).
 
-Renders full discs in ABI bands 14 (at the weather's valid time) and 1-6 (at three instants of
-the 6-hour window GFS's fluxes average), turns each pixel into broadband quantities and averages
-them onto the weather's 2.5 deg cells:
+Renders full discs in ABI bands 14 and 1-6 at three instants of the 6-hour window GFS's fluxes
+average (5, 3 and 1 h before the valid time), the clouds at each carried back from the valid time
+by GFS's wind (Scene.advance), turns each pixel into broadband quantities and averages them onto
+the weather's 2.5 deg cells:
 
   outgoing long-wave flux  F = sigma T_f^4, T_f = T_b (a + b T_b), T_b the 11.2 um brightness
                            temperature, a = 1.228, b = -1.106e-3 K^-1 (Ohring, Gruber & Ellingson
                            1984, J. Clim. Appl. Meteor. 23, 416: NOAA's operational OLR from the
-                           AVHRR window channel)
+                           AVHRR window channel); the mean over the instants
   albedo                   the bands' reflectance factors pi L / (E mu0), weighted by the share of
                            the solar spectrum each stands for (0.30, 0.22, 0.26, 0.06, 0.09, 0.07
                            for bands 1-6: ASTM G173 over 0.3-0.55, 0.55-0.75, 0.75-1.2, 1.2-1.45,
-                           1.45-1.9 and 1.9-4 um)
+                           1.45-1.9 and 1.9-4 um); the reflected flux summed over the instants over
+                           the insolation summed over them
 
 and compares them, area-weighted over the cells the sensor sees within 70 deg of nadir, with
 GFS's own 6-hour means: ulwrf at nominalTop over the GOES-East disc (a geostationary sensor at
 75.2 W), and uswrf at nominalTop over the insolation of the same 6 hours on the cells lit
 throughout them, seen from a geostationary sensor under the Sun at the window's middle (GOES-East
-sees little daylight at 00 and 12 UTC); nephos's albedo likewise is its reflected flux summed
-over 5, 3 and 1 h before the valid time over the insolation summed over them. GFS's fluxes come
-from its radiation code (RRTMG) and its own clouds: a reference that owes nothing to nephos.
-It also reports (gfs_cover_fits) how well GFS's own 6-hour and valid-time layer cloud covers
-explain the same fluxes in a least-squares fit: the most an instantaneous cloud field can be
-expected to reach against 6-hour means (docs/VALIDATION.md).
+sees little daylight at 00 and 12 UTC). GFS's fluxes come from its radiation code (RRTMG) and
+its own clouds: a reference that owes nothing to nephos. It also reports the same with the clouds
+left where they are at the valid time (clouds_fixed_at_valid_time), and (gfs_cover_fits) how well
+GFS's own 6-hour and valid-time layer cloud covers explain the same fluxes in a least-squares fit
+(docs/VALIDATION.md).
 
 Usage: PYTHONPATH=build/python scripts/validate_radiation.py WEATHER OUTDIR [--size N] [--texture N]
 Writes OUTDIR/summary.json and OUTDIR/{olr,albedo}.png (nephos left, GFS right).
@@ -48,7 +49,7 @@ SOLAR_BANDS = ["blue", "vis", "nir", "cirrus", "swir16", "swir22"]
 SOLAR_WEIGHTS = np.array([0.30, 0.22, 0.26, 0.06, 0.09, 0.07])
 GEO_LON, GEO_RADIUS_M, EARTH_RADIUS_M = -75.2, 42164.0e3, 6371008.8
 MAX_VZA = 70.0  # deg: cells the sensor sees at most this far from nadir
-ALBEDO_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the 6-hour window's thirds
+WINDOW_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the middles of the 6-hour window's thirds
 
 
 def unit(lat, lon):
@@ -195,6 +196,47 @@ def side_by_side(path, a, b, lo, hi, rows, cols, scale=4):
     write_png(path, np.repeat(np.repeat(img, scale, axis=0), scale, axis=1))
 
 
+def window_means(scene, w, valid, size, sw_lon, carried):
+    """nephos's outgoing long-wave flux and albedo on the weather's cells, as GFS's 6-hour means are
+    defined: rendered at WINDOW_INSTANTS_H before the valid time; long wave over the GOES-East
+    disc, the mean of the instants' fluxes; short wave under the Sun at the window's middle
+    (sw_lon), the reflected flux summed over the instants over the insolation summed over them.
+    carried: the clouds at each instant carried back from the valid time by GFS's wind
+    (Scene.advance, which leaves the scene there); else as they are at the valid time. Cells with
+    fewer than 20 pixels are NaN."""
+    lats, lons = w.latitudes, w.longitudes
+    olr_sum, reflected, incident = 0.0, 0.0, 0.0
+    n_olr = n_alb = np.inf
+    at_h = 0.0  # the scene's advance from the valid time [h]
+    for hours in WINDOW_INSTANTS_H:
+        if carried:
+            scene.advance(-hours - at_h)
+            at_h = -hours
+        when = valid - timedelta(hours=hours)
+        stamp = when.strftime("%Y-%m-%dT%H:%M:%SZ")
+        img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
+        tb = img["brightness_temperature_lwir11"]
+        olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
+        olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
+        g, n = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
+        olr_sum, n_olr = olr_sum + g, np.minimum(n_olr, n)
+        sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS, time=stamp)
+        lat, lon = sw["latitude"], sw["longitude"]
+        mu0, sun = cos_sun_zenith(lat, lon, when)
+        irradiance = np.maximum(mu0, 0) / sun["distance_au"] ** 2  # in units of the solar constant
+        refl = reflectance(sw, sun, mu0)
+        seen = (view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & np.isfinite(refl)
+        f, n = grid_mean(np.where(seen, refl * irradiance, np.nan), lat, lon, lats, lons)
+        e, _ = grid_mean(np.where(seen, irradiance, np.nan), lat, lon, lats, lons)
+        reflected, incident, n_alb = reflected + f, incident + e, np.minimum(n_alb, n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        alb = reflected / incident
+    olr = olr_sum / len(WINDOW_INSTANTS_H)
+    olr[n_olr < 20] = np.nan
+    alb[n_alb < 20] = np.nan
+    return olr, alb
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("weather")
@@ -208,32 +250,12 @@ def main():
     valid = datetime.strptime(w.valid_time, "%Y-%m-%dT%H:%M:%SZ").replace(tzinfo=timezone.utc)
     scene = nephos.Scene(w, texture=args.texture, seed=1)
     size = (args.size, args.size)
-    # Long wave over the GOES-East disc.
-    img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"])
-    tb = img["brightness_temperature_lwir11"]
-    olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
-    olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
-    # Short wave under the Sun at the window's middle, as GFS's is defined: the reflected flux summed
-    # over instants through the window over the insolation summed over them.
     _, mid_sun = cos_sun_zenith(0.0, 0.0, valid - timedelta(hours=3))
     sw_lon = round(mid_sun["subsolar_longitude_deg"], 1)
     lats, lons = w.latitudes, w.longitudes
-    reflected, incident = 0.0, 0.0
-    for hours in ALBEDO_INSTANTS_H:
-        when = valid - timedelta(hours=hours)
-        sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS,
-                          time=when.strftime("%Y-%m-%dT%H:%M:%SZ"))
-        lat, lon = sw["latitude"], sw["longitude"]
-        mu0, sun = cos_sun_zenith(lat, lon, when)
-        irradiance = np.maximum(mu0, 0) / sun["distance_au"] ** 2  # in units of the solar constant
-        refl = reflectance(sw, sun, mu0)
-        seen = (view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & np.isfinite(refl)
-        f, n_alb = grid_mean(np.where(seen, refl * irradiance, np.nan), lat, lon, lats, lons)
-        e, _ = grid_mean(np.where(seen, irradiance, np.nan), lat, lon, lats, lons)
-        reflected, incident = reflected + f, incident + e
-    with np.errstate(invalid="ignore", divide="ignore"):
-        alb_grid = reflected / incident
-    olr_grid, n_olr = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
+    # The clouds as they are at the valid time, then carried back through the window by the wind.
+    fixed_olr, fixed_alb = window_means(scene, w, valid, size, sw_lon, carried=False)
+    olr_grid, alb_grid = window_means(scene, w, valid, size, sw_lon, carried=True)
     la, lo = np.meshgrid(lats, lons, indexing="ij")
     area = np.cos(np.radians(la))
     # GFS: outgoing long-wave; short wave over the insolation of its 6-hour window, on cells lit
@@ -246,13 +268,13 @@ def main():
         insolation += SOLAR_CONSTANT / s["distance_au"] ** 2 * np.maximum(m, 0) / 37
         lit &= m > math.sin(math.radians(5))
     gfs_albedo = np.where(lit, w.field("uswrf", "nominalTop") / np.maximum(insolation, 1e-6), np.nan)
-    olr_grid[n_olr < 20] = np.nan
-    alb_grid[n_alb < 20] = np.nan
     summary = {
         "weather": w.source, "valid_time": w.valid_time, "size": args.size, "texture": args.texture,
         "longwave_sensor": f"geo:{GEO_LON}", "shortwave_sensor": f"geo:{sw_lon}",
         "olr": weighted_stats(olr_grid, gfs_olr, area),
         "albedo": weighted_stats(alb_grid, gfs_albedo, area),
+        "clouds_fixed_at_valid_time": {"olr": weighted_stats(fixed_olr, gfs_olr, area),
+                                       "albedo": weighted_stats(fixed_alb, gfs_albedo, area)},
         "gfs_cover_fits": reference_fits(w, gfs_olr, gfs_albedo, np.isfinite(olr_grid) & np.isfinite(gfs_olr),
                                          np.isfinite(alb_grid) & np.isfinite(gfs_albedo), area),
     }
