@@ -57,6 +57,18 @@ py::array_t<T> to_array(const std::vector<T>& values, std::vector<py::ssize_t> s
   return a;
 }
 
+// `values` moved into a numpy array of `shape` (row-major) without a copy: the array owns the
+// vector and frees it with itself. An image's fields are handed over so, since a full disc's are
+// gigabytes.
+template <class T>
+py::array_t<T> to_array(std::vector<T>&& values, std::vector<py::ssize_t> shape) {
+  auto owned = std::make_unique<std::vector<T>>(std::move(values));
+  T* data = owned->data();
+  py::capsule owner(owned.get(), [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  owned.release();  // the capsule owns it now
+  return py::array_t<T>(shape, data, owner);
+}
+
 class Weather {
  public:
   explicit Weather(weather::WeatherGrid w) : w_(std::move(w)) {}
@@ -167,13 +179,11 @@ class Scene {
     view.abi_step = abi_step;
     if (time) view.time = parse_time(*time, "time");
     require_image_size(view.width, view.height, "size");
-    // The arrays handed to Python hold a copy of the image: as much again as the renderer's.
-    const double copy = render::render_memory_bytes(view.width, view.height, render::render_params(view, 0)) /
-                        (static_cast<double>(view.width) * view.height);
+    // The image's fields become the arrays handed to Python (no copy).
     render::RenderedView r;
     {
       py::gil_scoped_release release;
-      r = scene_->render(view, copy);
+      r = scene_->render(view);
     }
     if (r.sensor.fixed_grid && !as_dict) return image_dataset(r, view);
     return image_dict(r);
@@ -203,29 +213,32 @@ class Scene {
     return std::make_unique<render::RenderScene>(w.grid(), r);
   }
   // Each (height, width) field of an image with its name, units and description, for the dict
-  // and the Dataset alike.
+  // and the Dataset alike; the fields are moved out of img into the arrays.
   template <class Fn>
-  static void for_each_field(const render::RenderImage& img, Fn&& field) {
+  static void for_each_field(render::RenderImage& img, Fn&& field) {
     const std::vector<py::ssize_t> shape{img.height, img.width};
     for (std::size_t b = 0; b < img.bands.size(); ++b) {
       const std::string what = optics::band(img.bands[b]).description;
-      field("radiance_" + img.bands[b], to_array(img.radiance[b], shape), "W m-2 sr-1 um-1", what + " radiance");
+      field("radiance_" + img.bands[b], to_array(std::move(img.radiance[b]), shape), "W m-2 sr-1 um-1",
+            what + " radiance");
       if (!img.brightness_temperature[b].empty())
-        field("brightness_temperature_" + img.bands[b], to_array(img.brightness_temperature[b], shape), "K",
+        field("brightness_temperature_" + img.bands[b], to_array(std::move(img.brightness_temperature[b]), shape), "K",
               what + " brightness temperature");
     }
-    field("cloud_top_altitude", to_array(img.cloud_top_altitude_m, shape), "m", "nearest cloud surface above MSL");
-    field("cloud_optical_depth", to_array(img.cloud_optical_depth, shape), "1", "visible cloud optical depth");
-    field("cloud_type", to_array(img.cloud_type, shape), "1",
+    field("cloud_top_altitude", to_array(std::move(img.cloud_top_altitude_m), shape), "m",
+          "nearest cloud surface above MSL");
+    field("cloud_optical_depth", to_array(std::move(img.cloud_optical_depth), shape), "1",
+          "visible cloud optical depth");
+    field("cloud_type", to_array(std::move(img.cloud_type), shape), "1",
           "-1 none, 0 low stratus, 1 low cumulus, 2 altostratus, 3 cirrus");
-    field("cloud_fraction", to_array(img.cloud_fraction, shape), "1", "cloud area fraction of the pixel");
-    field("latitude", to_array(img.latitude_deg, shape), "degrees_north",
+    field("cloud_fraction", to_array(std::move(img.cloud_fraction), shape), "1", "cloud area fraction of the pixel");
+    field("latitude", to_array(std::move(img.latitude_deg), shape), "degrees_north",
           "latitude of the nearest cloud or Earth point");
-    field("longitude", to_array(img.longitude_deg, shape), "degrees_east",
+    field("longitude", to_array(std::move(img.longitude_deg), shape), "degrees_east",
           "longitude of the nearest cloud or Earth point");
   }
-  static py::dict image_dict(const render::RenderedView& r) {
-    const render::RenderImage& img = r.image;
+  static py::dict image_dict(render::RenderedView& r) {
+    render::RenderImage& img = r.image;
     py::dict out;
     for_each_field(img, [&](const std::string& name, py::object array, const std::string&, const std::string&) {
       out[py::str(name)] = array;
@@ -240,8 +253,8 @@ class Scene {
   // An ABI view as an xarray.Dataset on the fixed grid: x, y scan angles [rad], every field with
   // its units and the CF grid mapping goes_imager_projection; the view's request in the attributes
   // (what write_abi_l1b needs).
-  static py::object image_dataset(const render::RenderedView& r, const render::ViewRequest& view) {
-    const render::RenderImage& img = r.image;
+  static py::object image_dataset(render::RenderedView& r, const render::ViewRequest& view) {
+    render::RenderImage& img = r.image;
     const render::FixedGridView& fg = *r.sensor.fixed_grid;
     const render::FixedGridSector& sec = fg.sector;
     std::vector<double> xs(static_cast<std::size_t>(sec.nx)), ys(static_cast<std::size_t>(sec.ny));

@@ -109,6 +109,12 @@ class Render(unittest.TestCase):
         self.assertGreater(np.count_nonzero(img["cloud_type"] >= 0), 1000)  # the view holds clouds (3280 of 7680)
         self.assertEqual(img["time"], "2011-01-15T12:00:00Z")
         self.assertEqual(sorted(img["seconds_per_type"]), ["cirrus", "low_stratus"])
+        # The arrays are the renderer's own, handed over without a copy (a full disc's fields are
+        # gigabytes): numpy does not own their memory, the capsule that frees it does.
+        for name in ("radiance_vis", "brightness_temperature_lwir", "cloud_type", "latitude"):
+            self.assertFalse(img[name].flags.owndata, name)
+            self.assertIsNotNone(img[name].base, name)
+            self.assertTrue(img[name].flags.writeable and img[name].flags.c_contiguous, name)
 
     def test_the_band_table(self):
         # The 16 GOES-16 ABI bands Scene.render takes, with what a sensor model needs of them.
