@@ -253,7 +253,7 @@ class RadiationAgainstGfs(unittest.TestCase):
         self.assertLess(abs(s["albedo"]["bias"]), 0.05)
         # The wind carries the clouds the right way: carried back through the window they agree
         # better with the window's means than left at the valid time (measured +0.021 long wave,
-        # +0.039 albedo; carried forward instead, -0.023 and -0.023). The bounds are half the gains.
+        # +0.039 albedo; carried forward instead, -0.023 and -0.021). The bounds are half the gains.
         fixed = s["clouds_fixed_at_valid_time"]
         self.assertGreater(s["olr"]["correlation"], fixed["olr"]["correlation"] + 0.01)
         self.assertGreater(s["albedo"]["correlation"], fixed["albedo"]["correlation"] + 0.02)

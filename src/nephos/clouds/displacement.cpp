@@ -75,15 +75,15 @@ WindField make_wind_field(const weather::WeatherGrid& weather, double altitude_m
 }
 
 namespace {
-// The steps of trace_upwind() for a duration, and their length h (backwards in time, per unit
-// radius).
+// The steps of trace_upwind() for a duration (negative: forwards in time, as long), and their
+// length h (backwards in time, per unit radius).
 struct Steps {
   int count;
   double h;
 };
 Steps steps_for(const WindField& wind, double seconds, double step_s) {
   const double r = earth::radius_m + wind.altitude_m;
-  const int steps = std::max(1, static_cast<int>(std::ceil(seconds / step_s)));
+  const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(seconds) / step_s)));
   return {steps, -seconds / steps / r};
 }
 // One RK4 step on the unit sphere.

@@ -56,6 +56,31 @@ TEST(Displacement, CrossesThePoleWithoutSingularity) {
   EXPECT_NEAR(up.y, 0.0, 1e-6);
 }
 
+TEST(Displacement, BackwardsInTimeIsTheReversedWindsTrace) {
+  // Tracing a negative duration (where air goes to, as Scene.advance(-h) needs) is tracing the
+  // same duration upwind in the reversed wind: the same steps, bit for bit, in 30-minute steps
+  // however long (one 5-hour step would leave a sheared flow's curvature unresolved).
+  const double omega = 25.0 / earth::radius_m;
+  const WindField w = rotation(glm::normalize(earth::Vec3{0.3, 0.2, 1.0}), omega, 32);
+  WindField reversed = w;
+  for (int f = 0; f < 6; ++f)
+    for (int j = 0; j < 32; ++j)
+      for (int i = 0; i < 32; ++i) reversed.velocity_m_s.texel(f, i, j) = -w.velocity_m_s.texel(f, i, j);
+  for (double hours : {0.4, 5.0, 11.0})
+    for (double lat : {-50.0, 10.0, 75.0}) {
+      const earth::Vec3 p = earth::unit_from_latlon(lat, 40);
+      EXPECT_EQ(trace_upwind(w, p, -hours * 3600, 1800), trace_upwind(reversed, p, hours * 3600, 1800)) << hours;
+    }
+  // And back again: a map built forward 6 h, then advanced -6 h, is the identity to within the
+  // cube map's interpolation (< 0.01 deg here, as MapsComposeForAnimation).
+  const DisplacementMap there_and_back = DisplacementMap::build(w, 6, 64).advanced(w, -6, 1800, 64);
+  for (double lat : {-60.0, 0.0, 33.0})
+    for (double lon : {-170.0, 120.0}) {
+      const earth::Vec3 d = earth::unit_from_latlon(lat, lon);
+      EXPECT_LT(angle_deg(there_and_back.upwind(d), d), 0.01) << lat << " " << lon;
+    }
+}
+
 TEST(Displacement, MapsBuiltTogetherAreEachTexelsOwnTrace) {
   // build_all() traces the durations of one step length together (6 h is the first 12 of 8 h's
   // 16 half-hour steps); every texel must still be exactly trace_upwind() of its direction
