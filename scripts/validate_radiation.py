@@ -214,11 +214,12 @@ def window_means(scene, w, valid, size, sw_lon, carried):
             at_h = -hours
         when = valid - timedelta(hours=hours)
         stamp = when.strftime("%Y-%m-%dT%H:%M:%SZ")
-        img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
-        tb = img["brightness_temperature_lwir11"]
-        olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
-        olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
-        g, n = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
+        if carried or hours == WINDOW_INSTANTS_H[0]:  # the long wave does not see the Sun move
+            img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
+            tb = img["brightness_temperature_lwir11"]
+            olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
+            olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
+            g, n = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
         olr_sum, n_olr = olr_sum + g, np.minimum(n_olr, n)
         sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS, time=stamp)
         lat, lon = sw["latitude"], sw["longitude"]
@@ -226,9 +227,9 @@ def window_means(scene, w, valid, size, sw_lon, carried):
         irradiance = np.maximum(mu0, 0) / sun["distance_au"] ** 2  # in units of the solar constant
         refl = reflectance(sw, sun, mu0)
         seen = (view_zenith_deg(lat, lon, sw_lon) < MAX_VZA) & np.isfinite(refl)
-        f, n = grid_mean(np.where(seen, refl * irradiance, np.nan), lat, lon, lats, lons)
+        f, n_f = grid_mean(np.where(seen, refl * irradiance, np.nan), lat, lon, lats, lons)
         e, _ = grid_mean(np.where(seen, irradiance, np.nan), lat, lon, lats, lons)
-        reflected, incident, n_alb = reflected + f, incident + e, np.minimum(n_alb, n)
+        reflected, incident, n_alb = reflected + f, incident + e, np.minimum(n_alb, n_f)
     with np.errstate(invalid="ignore", divide="ignore"):
         alb = reflected / incident
     olr = olr_sum / len(WINDOW_INSTANTS_H)
