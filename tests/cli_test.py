@@ -4,6 +4,7 @@
 Run by CTest with the path of the built binary: cli_test.py NEPHOS_BINARY
 Uses Debian's python3 (numpy, xarray, netCDF4) and ecCodes' grib_copy.
 """
+import hashlib
 import os
 import re
 import subprocess
@@ -314,7 +315,8 @@ class AbiL1b(unittest.TestCase):
         d = Path(cls.tmp.name)
         common = ["render", "--sensor", "abi:east", "--abi-step", "32", "--texture", "32", "--time",
                   "2011-01-15T15:00:00Z"]
-        cls.l1b = run(*common, "--bands", "vis,mwir,wv62,wv73,o3,lwir", "--format", "abi-l1b", "--out", d / "l1b")
+        cls.l1b_args = [*common, "--bands", "vis,mwir,wv62,wv73,o3,lwir", "--format", "abi-l1b"]
+        cls.l1b = run(*cls.l1b_args, "--out", d / "l1b")
         cls.thermal = run(*common, "--bands", "mwir,wv62,wv73,o3,lwir", "--out", d / "thermal")
         cls.vis = run(*common, "--bands", "vis", "--out", d / "vis")
 
@@ -410,6 +412,20 @@ class AbiL1b(unittest.TestCase):
         cos_d = np.sin(a[0]) * np.sin(a[2]) + np.cos(a[0]) * np.cos(a[2]) * np.cos(a[1] - a[3])
         distance_km = r * np.arccos(np.clip(cos_d, -1, 1))
         self.assertLess(distance_km.max(), 0.5)
+
+    def test_files_are_the_same_bytes_with_one_thread(self):
+        # The render, the packing into counts and the fixed grid's Earth mask run in parallel,
+        # each pixel on its own: one thread writes the same files, byte for byte.
+        self.assertEqual(self.l1b.returncode, 0, self.l1b.stderr)
+        with tempfile.TemporaryDirectory() as d:
+            r = run("--threads", "1", *self.l1b_args, "--out", d)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            ours = sorted((Path(self.tmp.name) / "l1b").glob("*.nc"))
+            self.assertEqual([f.name for f in ours], sorted(f.name for f in Path(d).glob("*.nc")))
+            self.assertEqual(len(ours), 6)
+            for f in ours:  # digests: a failure names the file without printing megabytes
+                self.assertEqual(hashlib.sha256(f.read_bytes()).hexdigest(),
+                                 hashlib.sha256((Path(d) / f.name).read_bytes()).hexdigest(), f.name)
 
     def test_a_satpy_composite_builds(self):
         # satpy's airmass composite (bands 8, 10, 12, 13) from nephos's files: an RGB of the grid.
@@ -986,7 +1002,7 @@ class Bench(unittest.TestCase):
         r = run("bench", "render", "--quick", "--repeat", "1")
         self.assertEqual(r.returncode, 0, r.stderr)
         for anchor in ("718", "195", "590", "458", "peak resident memory", "field of view", "per marched ray", "CPU: ", "built for",
-                       "interleaved pairs", "(goal <= 1.30", "(goal <= 17)", "(goal <= 60 s)"):
+                       "interleaved pairs", "(goal <= 1.30", "(goal <= 17)", "(goal <= 60 s; tracing the types"):
             self.assertIn(anchor, r.stdout)
         # Every cloud type and their mean, the measure of the seed's table (an average per shell).
         every = next(l for l in r.stdout.splitlines() if l.startswith("every cloud type"))

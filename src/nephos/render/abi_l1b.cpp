@@ -158,14 +158,18 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.put_attribute(g, "time_coverage_end", abi_iso(end));
   nc.end_definitions();
   // Data.
-  std::vector<std::int16_t> packed(n, rad_fill);
-  std::vector<std::int8_t> quality(n, -1);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!on_earth[i]) continue;
-    const double l = band.thermal ? pc.radiance(img.brightness_temperature[bi][i]) : img.radiance[bi][i];
-    if (!std::isfinite(l)) continue;
-    packed[i] = static_cast<std::int16_t>(std::clamp(std::round(l / scale), 0.0, counts));
-    quality[i] = 0;
+  std::vector<std::int16_t> packed(n);
+  std::vector<std::int8_t> quality(n);
+  const auto ni = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < ni; ++k) {  // each pixel on its own: the same bits for any thread count
+    const auto i = static_cast<std::size_t>(k);
+    const double l = !on_earth[i]   ? NAN
+                     : band.thermal ? pc.radiance(img.brightness_temperature[bi][i])
+                                    : img.radiance[bi][i];
+    const bool ok = std::isfinite(l);
+    packed[i] = ok ? static_cast<std::int16_t>(std::clamp(std::round(l / scale), 0.0, counts)) : rad_fill;
+    quality[i] = ok ? 0 : -1;
   }
   nc.write(rad, packed.data());
   nc.write(dqf, quality.data());
@@ -262,6 +266,7 @@ std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& di
   if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
   // Which pixels the fixed grid puts on the Earth.
   std::vector<std::uint8_t> on_earth(static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny));
+#pragma omp parallel for schedule(static)
   for (int j = 0; j < sec.ny; ++j)
     for (int i = 0; i < sec.nx; ++i) {
       double lat = 0, lon = 0;
