@@ -250,19 +250,7 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
   const std::vector<double> f = fractal_sample();
   build_coverage(f);
   build_detail_tables();
-  if (p_.calibrate) {
-    const int n = static_cast<int>(f.size());
-    // phi(m) = threshold - Q_F(1 - m) at 1024 intervals of m, Q_F the sample quantile (linear
-    // between order statistics), so that CF > threshold where F > Q_F(1 - m): a fraction m.
-    bias_ = 0;
-    mask_terms_.resize(mask_term_intervals + 1);
-    for (int k = 0; k <= mask_term_intervals; ++k) {
-      const double at = (1.0 - static_cast<double>(k) / mask_term_intervals) * (n - 1);
-      const auto i = std::min(static_cast<std::size_t>(at), static_cast<std::size_t>(n - 2));
-      const double q = f[i] + (at - static_cast<double>(i)) * (f[i + 1] - f[i]);
-      mask_terms_[static_cast<std::size_t>(k)] = p_.threshold - q;
-    }
-  }
+  if (p_.calibrate) calibrate();
 }
 
 std::vector<double> CloudShell::fractal_sample() const {
@@ -281,6 +269,74 @@ std::vector<double> CloudShell::fractal_sample() const {
   }
   std::sort(f.begin(), f.end());
   return f;
+}
+
+std::vector<std::vector<double>> CloudShell::column_sample() const {
+  // Vertical columns through the unlifted shell, from two bottom length scales below its base to
+  // two top ones above its top, at column_levels altitudes. Each term's column starts at a
+  // hashed point of its tile and runs along a hashed direction (the terms' upwind points
+  // differ, as in fractal_sample()), dz / LS_i tiles per metre of height. Per squeeze class j
+  // the shell is lowered by shell_bottom + s_j, its top s_j nearer its bottom (bottom_lift()),
+  // and each column's G_j = max over z of F(z) - barrier(z) in that shell.
+  const int n = column_count, levels = column_levels, nj = squeeze_classes_;
+  const double z0 = p_.shell_bottom_m - 2 * p_.altitude_length_bottom_m;
+  const double dz = (p_.shell_top_m + 2 * p_.altitude_length_top_m - z0) / (levels - 1);
+  std::vector<std::vector<double>> g(static_cast<std::size_t>(nj), std::vector<double>(static_cast<std::size_t>(n)));
+#pragma omp parallel for schedule(static)
+  for (int s = 0; s < n; ++s) {
+    const auto u = static_cast<std::uint64_t>(s);
+    std::array<earth::Vec3, 3> q0, step;
+    for (std::uint64_t i = 0; i < 3; ++i) {
+      q0[i] = {uniform01(98, u, i, 0), uniform01(98, u, i, 1), uniform01(98, u, i, 2)};
+      const double cz = 2 * uniform01(98, u, i, 3) - 1, az = 2 * M_PI * uniform01(98, u, i, 4);
+      const double sz = std::sqrt(1 - cz * cz);
+      step[i] = earth::Vec3{sz * std::cos(az), sz * std::sin(az), cz} * (dz / p_.fractals[i].length_scale_m);
+    }
+    std::array<double, column_levels> f{};
+    for (int k = 0; k < levels; ++k)
+      for (std::size_t i = 0; i < 3; ++i) {
+        const earth::Vec3 q = q0[i] + static_cast<double>(k) * step[i];
+        f[static_cast<std::size_t>(k)] +=
+            p_.fractals[i].weight * (*tex_)[static_cast<int>(i)].sample(static_cast<float>(q.x - std::floor(q.x)),
+                                                                        static_cast<float>(q.y - std::floor(q.y)),
+                                                                        static_cast<float>(q.z - std::floor(q.z)));
+      }
+    for (int j = 0; j < nj; ++j) {
+      const double squeeze = nj > 1 ? j / inv_squeeze_step_m_ : 0.0;
+      const double lift = squeeze > 0 ? -(p_.shell_bottom_m + squeeze) : 0.0;
+      double best = -std::numeric_limits<double>::infinity();
+      for (int k = 0; k < levels; ++k)
+        best = std::max(best, f[static_cast<std::size_t>(k)] - barrier(z0 + k * dz + lift, lift));
+      g[static_cast<std::size_t>(j)][static_cast<std::size_t>(s)] = best;
+    }
+  }
+  for (auto& column : g) std::sort(column.begin(), column.end());
+  return g;
+}
+
+void CloudShell::calibrate() {
+  // phi(m) = threshold - Q_G(1 - m) at 1024 intervals of m, Q_G the sample quantile (linear
+  // between order statistics) of the columns' G, so that a fraction m of columns reach
+  // CF > threshold somewhere in their height: the projected cover, what a cloud fraction (the
+  // masks', GFS's) means. Per squeeze class where the weather can lower the shell onto the
+  // ground (cloud_top_lifts(): at most half its depth), so that a thinned shell keeps its cover.
+  const double max_squeeze = 0.5 * (p_.shell_top_m - p_.shell_bottom_m) - p_.shell_bottom_m;
+  squeeze_classes_ = max_squeeze > 0 ? 9 : 1;
+  inv_squeeze_step_m_ = max_squeeze > 0 ? (squeeze_classes_ - 1) / max_squeeze : 0.0;
+  const std::vector<std::vector<double>> g = column_sample();
+  bias_ = 0;
+  const std::size_t row = mask_term_intervals + 1;
+  mask_terms_.resize(static_cast<std::size_t>(squeeze_classes_) * row);
+  for (std::size_t j = 0; j < g.size(); ++j) {
+    const std::vector<double>& gj = g[j];
+    const auto n = static_cast<double>(gj.size());
+    for (int k = 0; k <= mask_term_intervals; ++k) {
+      const double at = (1.0 - static_cast<double>(k) / mask_term_intervals) * (n - 1);
+      const auto i = std::min(static_cast<std::size_t>(at), gj.size() - 2);
+      const double q = gj[i] + (at - static_cast<double>(i)) * (gj[i + 1] - gj[i]);
+      mask_terms_[j * row + static_cast<std::size_t>(k)] = p_.threshold - q;
+    }
+  }
 }
 
 void CloudShell::build_coverage(const std::vector<double>& f) {
@@ -663,7 +719,7 @@ template <bool Filtered>
     // Filtered: out of reach whatever the footprint (sigma at most sigma_max_, the fractal sum
     // within its bounds); the footprint's own reach is level_stage()'s.
     const double margin = Filtered ? u_min_ * sigma_max_ : 0.0;
-    const double smooth = bias_ + mask_term(mask);
+    const double smooth = bias_ + mask_term(mask, squeeze_m(lift));
     double bar;
     if (xb >= 0 && xb <= bt_last - 1 && xt >= 0 && xt <= bt_last - 1) {
       const auto ib = static_cast<std::size_t>(xb), it = static_cast<std::size_t>(xt);
@@ -968,7 +1024,8 @@ void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double 
       const std::size_t o = k * chunk;
       maps_[0].upwind(x + o, y + o, z + o, m, ux + o, uy + o, uz + o);
       for (std::size_t a = 0; a < m; ++a) {
-        smooth[o + a] = mask_term(mask_->sample(earth::Vec3{ux[o + a], uy[o + a], uz[o + a]}));
+        const earth::Vec3 at{ux[o + a], uy[o + a], uz[o + a]};
+        smooth[o + a] = mask_term(mask_->sample(at), lift_ ? squeeze_m(lift_->sample(at)) : 0.0);
       }
     }
     for (std::size_t a = 0; a < m; ++a) {
@@ -1106,6 +1163,7 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
     const std::size_t k = scene.shells.size();
     auto cube = std::make_shared<const CubeMap<float>>(std::move(cubes[k]));
     scene.shells.emplace_back(t, p, scene.textures, std::move(cube), std::move(maps));
+    scene.condensate_layer_m.push_back(masks.condensate_layer_m[static_cast<std::size_t>(t)]);
     if (params.follow_weather_tops)
       scene.shells.back().set_lift(std::make_shared<const CubeMap<float>>(std::move(lifts[k])));
     scene.wind_of_shell.push_back(w);

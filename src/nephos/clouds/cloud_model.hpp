@@ -300,13 +300,24 @@ class CloudShell {
   /// The bottom barrier moves with the lift but not below the ground (a shell on the ground
   /// lowered by the weather only thins from the top).
   double bottom_lift(double lift) const { return std::max(lift, -p_.shell_bottom_m); }
-  /// The mask's term of CF: w m, or with calibration phi(m) (linear between 1025 nodes).
-  double mask_term(double m) const {
+  /// How much a lift below -shell_bottom thins the shell [m]: its bottom stays on the ground.
+  double squeeze_m(double lift) const { return bottom_lift(lift) - lift; }
+  /// The mask's term of CF: w m, or with calibration phi(m, squeeze) (linear between 1025 nodes
+  /// of m and between the squeeze classes).
+  double mask_term(double m, double squeeze_m = 0) const {
     if (mask_terms_.empty()) return mask_weight_ * m;
     const double x = std::clamp(m, 0.0, 1.0) * mask_term_intervals;
     const int i = std::min(static_cast<int>(x), mask_term_intervals - 1);
     const auto iu = static_cast<std::size_t>(i);
-    return mask_terms_[iu] + (x - i) * (mask_terms_[iu + 1] - mask_terms_[iu]);
+    const double* row = mask_terms_.data();
+    if (squeeze_classes_ == 1) return row[iu] + (x - i) * (row[iu + 1] - row[iu]);
+    const double y = std::clamp(squeeze_m * inv_squeeze_step_m_, 0.0, static_cast<double>(squeeze_classes_ - 1));
+    const int j = std::min(static_cast<int>(y), squeeze_classes_ - 2);
+    const double fy = y - j;
+    const double* r0 = row + static_cast<std::size_t>(j) * (mask_term_intervals + 1);
+    const double* r1 = r0 + (mask_term_intervals + 1);
+    const double v0 = r0[iu] + (x - i) * (r0[iu + 1] - r0[iu]), v1 = r1[iu] + (x - i) * (r1[iu + 1] - r1[iu]);
+    return v0 + fy * (v1 - v0);
   }
   static constexpr int mask_term_intervals = 1024;
   static constexpr int coverage_intervals = 1024;
@@ -325,8 +336,16 @@ class CloudShell {
   /// The fractal sum F at 32768 counter-hashed points (each texture at its own independent
   /// position: the terms use unrelated length scales), sorted.
   std::vector<double> fractal_sample() const;
+  /// Per squeeze class j and column of the shell, the largest F - barrier over its height,
+  /// sorted within each class (the calibration): [j][column].
+  std::vector<std::vector<double>> column_sample() const;
+  static constexpr int column_count = 16384, column_levels = 48;
   void build_coverage(const std::vector<double>& sorted_f);
-  std::vector<double> mask_terms_;  ///< phi at m = k / 1024 (calibrated), else empty
+  void calibrate();
+  /// phi at m = k / 1024 for squeeze class j at [j * 1025 + k] (calibrated), else empty.
+  std::vector<double> mask_terms_;
+  int squeeze_classes_ = 1;  ///< 1, or 9 for a shell the weather can lower onto the ground
+  double inv_squeeze_step_m_ = 0;
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms
   std::array<int, 3> order_{0, 2, 1};                      ///< evaluation order of the fractal terms
@@ -406,6 +425,9 @@ ModelConfig read_model_config(const std::filesystem::path& path);
 struct CloudScene {
   std::shared_ptr<const FractalTextures> textures;
   std::vector<CloudShell> shells;
+  /// Per shell, the altitudes [m MSL] whose condensate its clouds carry
+  /// (weather::condensate_layers_m()); shells of one layer share it.
+  std::vector<std::array<double, 2>> condensate_layer_m;
   std::vector<WindField> winds;    ///< one per distinct wind altitude
   std::vector<int> wind_of_shell;  ///< index into winds for each shell
 };

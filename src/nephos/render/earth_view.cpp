@@ -35,13 +35,15 @@ double along(const std::vector<float>& z, const std::vector<float>& v, double zq
 }  // namespace
 
 EarthView::EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
-                     const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k)
+                     const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k,
+                     const std::vector<std::array<double, 2>>& condensate_layers)
     : weather_(weather),
       bands_(bands),
       atmosphere_(atmosphere),
       ground_temperature_k_(ground_temperature_k),
       sensor_position_(sensor.position),
-      sun_direction_(sun.direction_ecef) {
+      sun_direction_(sun.direction_ecef),
+      condensate_layers_(condensate_layers) {
   const auto t0 = std::chrono::steady_clock::now();
   if (weather) {
     grid_ = weather->grid();
@@ -88,6 +90,21 @@ void EarthView::build_node(std::size_t k, int j, int i) {
     }
     for (std::size_t l = 0; l < p.size() && zc.size() >= 2; ++l)
       node.condensate[l] = node.z[l] > zc.back() ? 0.0f : static_cast<float>(along(zc, qc, node.z[l]));
+  }
+  node.layers.assign(condensate_layers_.size(), LayerCondensate{});
+  for (std::size_t l = 0; l < condensate_layers_.size() && !node.condensate.empty(); ++l) {
+    // The midpoint rule over 64 steps of the layer's part above the ground.
+    const double z0 = std::max<double>(condensate_layers_[l][0], node.z.front());
+    const double z1 = std::min<double>(condensate_layers_[l][1], node.z.back());
+    if (!(z1 > z0)) continue;
+    constexpr int steps = 64;
+    const double dz = (z1 - z0) / steps;
+    double path = 0, q2 = 0, qz = 0;
+    for (int step = 0; step < steps; ++step) {
+      const double z = z0 + (step + 0.5) * dz, q = along(node.z, node.condensate, z);
+      path += q * dz, q2 += q * q * dz, qz += q * z * dz;
+    }
+    if (path > 0) node.layers[l] = {path, q2 / path, along(node.z, node.t, qz / path)};
   }
   // The ground.
   if (weather_) {
@@ -240,6 +257,22 @@ void EarthView::condensate_g_m3(const Place& s, const double* z, std::size_t n, 
     for (std::size_t i = 0; i < n; ++i)
       out[i] += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].condensate, z[i], &hint);
   }
+}
+
+EarthView::LayerCondensate EarthView::condensate_layer(const Place& s, std::size_t l) const {
+  LayerCondensate out;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (!(s.w[q] > 0) || l >= nodes_[s.node[q]].layers.size()) continue;
+    const LayerCondensate& n = nodes_[s.node[q]].layers[l];
+    out.path_g_m2 += s.w[q] * n.path_g_m2, out.mean_g_m3 += s.w[q] * n.mean_g_m3;
+    out.temperature_k += s.w[q] * n.temperature_k;
+  }
+  return out;
+}
+
+std::pair<double, double> EarthView::node_lat_lon_deg(std::size_t k) const {
+  const auto n = static_cast<std::size_t>(grid_.nlon);
+  return {grid_.lat(static_cast<int>(k / n)), grid_.lon(static_cast<int>(k % n))};
 }
 
 surface::State EarthView::ground(const Place& s, std::array<double, optics::max_band_count>* sky_down) const {

@@ -5,6 +5,7 @@
 // (surface::State); sampled anywhere by bilinear interpolation between nodes, with each node's
 // transmittance carried to the pixel's own air mass.
 #include <array>
+#include <utility>
 #include <vector>
 
 #include "nephos/atmosphere/clear_sky.hpp"
@@ -30,8 +31,10 @@ class EarthView {
   /// @param weather  the weather (nullptr: the US standard atmosphere over a grey 288 K sea)
   /// @param atmosphere  false: a vacuum (no gases, no Rayleigh), for comparison
   /// @param ground_temperature_k  without weather, the temperature of the ground (open sea)
+  /// @param condensate_layers  altitude ranges [m] whose condensate condensate_layer() reports
   EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
-            const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k = 288.15);
+            const std::vector<const optics::Band*>& bands, bool atmosphere, double ground_temperature_k = 288.15,
+            const std::vector<std::array<double, 2>>& condensate_layers = {});
 
   /// Where a point lies among the weather's nodes: the four around it and their bilinear
   /// weights, found once for all the lookups below at that point.
@@ -51,6 +54,18 @@ class EarthView {
   /// searched once and walked down from there when the altitudes descend (a cloud's profile
   /// below its top).
   void condensate_g_m3(const Place& at, const double* z_m, std::size_t n, double* out) const;
+  /// The condensate of one altitude layer at a place: its grid-mean path [g m^-2], its mean
+  /// where it is (sum q^2 dz / sum q dz) [g m^-3] and the temperature at its centroid [K].
+  struct LayerCondensate {
+    double path_g_m2 = 0, mean_g_m3 = 0, temperature_k = 0;
+  };
+  /// Layer l of the constructor's condensate_layers at a place (bilinear between the nodes,
+  /// each integrating its profile in 64 steps; all 0 where the weather has no condensate).
+  LayerCondensate condensate_layer(const Place& at, std::size_t l) const;
+  /// The nodes' count and geodetic positions [deg] (condensate_layer()'s node values apart).
+  std::size_t node_count() const { return nodes_.size(); }
+  std::pair<double, double> node_lat_lon_deg(std::size_t k) const;
+  LayerCondensate node_condensate_layer(std::size_t k, std::size_t l) const { return nodes_[k].layers[l]; }
   bool has_condensate() const { return has_condensate_; }
   /// The ground at a place; with sky_down, also the sky's downwelling thermal radiance there per
   /// band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).
@@ -62,6 +77,7 @@ class EarthView {
  private:
   struct Node {
     std::vector<float> z, t, condensate;  // levels: altitude [m], temperature [K], condensate [g m^-3]
+    std::vector<LayerCondensate> layers;  // the condensate layers'
     float ground_height_m = 0;
     surface::State ground;
     // The column's clear-sky optics (atmosphere::clear_sky_column) at its levels optics_z, per
@@ -83,6 +99,7 @@ class EarthView {
   bool atmosphere_, has_condensate_ = false;
   double ground_temperature_k_;
   earth::Vec3 sensor_position_, sun_direction_;
+  std::vector<std::array<double, 2>> condensate_layers_;
   std::vector<Node> nodes_;
   double seconds_ = 0;
 };

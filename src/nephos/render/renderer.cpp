@@ -11,6 +11,8 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <tuple>
+#include <utility>
 
 #include "nephos/atmosphere/rayleigh.hpp"
 #include "nephos/core/error.hpp"
@@ -107,11 +109,12 @@ struct Layer {  // one cloud type's contribution to one pixel; its per-band valu
   float altitude = 0, tau_vis = 0;
   float coverage = 1;  // the share of the pixel it covers (ShellHit::coverage)
 };
-// A layer's radiance [W m^-2 sr^-1 um^-1], direct transmittance and the air's radiance between
-// it and the sensor [W m^-2 sr^-1 um^-1] in each of a render's nb bands: radiance[0..nb), then
-// transmittance[0..nb), then path[0..nb), 12 nb bytes per layer (as many bands as asked for, up
-// to optics::max_band_count). Read only where the layer's t is finite, so never reset.
-constexpr std::size_t layer_band_floats(std::size_t nb) { return 3 * nb; }
+// A layer's radiance [W m^-2 sr^-1 um^-1], transmittance, the air's radiance between it and the
+// sensor [W m^-2 sr^-1 um^-1] and reflectance in each of a render's nb bands: radiance[0..nb),
+// then transmittance[0..nb), path[0..nb), reflectance[0..nb), 16 nb bytes per layer (as many
+// bands as asked for, up to optics::max_band_count). Read only where the layer's t is finite,
+// so never reset.
+constexpr std::size_t layer_band_floats(std::size_t nb) { return 4 * nb; }
 
 }  // namespace
 
@@ -575,6 +578,40 @@ struct SubPixel {
   }
 };
 
+// Droplet effective radius [um] from the liquid water content [g m^-3] over ground of a land
+// share `land` (Martin, Johnson & Spice 1994: r_e = (3 W / (4 pi rho_w k N))^(1/3), N = 100 cm^-3
+// and k = 0.8 over sea, 300 cm^-3 and 0.67 over land); 4-25 um.
+double droplet_effective_radius_um(double lwc_g_m3, double land) {
+  const double n_m3 = (100 + 200 * land) * 1e6, k = 0.8 - 0.13 * land;
+  const double r_m = std::cbrt(3 * lwc_g_m3 * 1e-3 / (4 * M_PI * 1000 * k * n_m3));
+  return std::clamp(r_m * 1e6, 4.0, 25.0);
+}
+
+// Ice effective radius [um] from the in-cloud ice water content [g m^-3] and temperature [K]:
+// Heymsfield & McFarquhar (1996, J. Atmos. Sci. 53, eq. 5, p. 2434; the relation GFS's
+// radiation uses for its own ice), r_e = (1250 / c) IWC^p with (c, p) = (9.917, 0.109) below
+// -50 C, (9.337, 0.08) to -40 C, (9.208, 0.055) to -30 C, (9.387, 0.031) above; 10-150 um.
+double ice_effective_radius_um(double iwc_g_m3, double t_k) {
+  const double tc = t_k - 273.15, iwc = std::max(iwc_g_m3, 1e-6);
+  const double r = tc < -50   ? 1250 / 9.917 * std::pow(iwc, 0.109)
+                   : tc < -40 ? 1250 / 9.337 * std::pow(iwc, 0.08)
+                   : tc < -30 ? 1250 / 9.208 * std::pow(iwc, 0.055)
+                              : 1250 / 9.387 * std::pow(iwc, 0.031);
+  return std::clamp(r, 10.0, 150.0);
+}
+
+// Where the weather gives a cloud's microphysics (microphysics(), RenderContext::shadow_tau):
+// condensate paths above min_path_g_m2 over the cloud's share, in-cloud water contents clamped to
+// [min, max]_water_g_m3, ice below ice_below_k (-15 C).
+constexpr double min_path_g_m2 = 0.1, min_water_g_m3 = 0.01, max_water_g_m3 = 3.0, ice_below_k = 258.15;
+
+// The phase and effective radius [um] of cloud of in-cloud water content wc [g m^-3] at t_k [K]
+// over ground of land share `land`.
+std::pair<optics::Phase, double> particles(double wc_g_m3, double t_k, double land) {
+  return t_k < ice_below_k ? std::pair{optics::Phase::ice, ice_effective_radius_um(wc_g_m3, t_k)}
+                           : std::pair{optics::Phase::water, droplet_effective_radius_um(wc_g_m3, land)};
+}
+
 // What every stage of render_at() reads: the scene, the sensor and the Sun, the parameters, the
 // bands, the atmosphere and ground (EarthView) and each cloud type's default optics per band.
 struct RenderContext {
@@ -593,6 +630,12 @@ struct RenderContext {
   /// [type][band] the similarity-scaled extinction factor (1 - omega g) of the type's own optics
   /// and its scaled single-scattering albedo, for the shadows it casts.
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
+  /// [node * shells + shell] the vertical visible optical depth of each shell's clouds at each
+  /// weather node (EarthView's) from the weather's condensate, as microphysics() gives its
+  /// elements (the layer's path over the cloud's share; the water content for the effective
+  /// radius its mean where it is, phase and radius from its temperature); 0 where it has none.
+  /// What the shadows a shell casts dim with.
+  std::vector<float> shadow_tau;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
   /// (or sub-pixel's) angle at the image centre [rad]; 0 without filtering.
@@ -619,33 +662,81 @@ struct RenderContext {
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
+    if (shadows) build_shadow_tau();
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
   std::size_t band_count() const { return tables.bands.size(); }
+  /// The share of the cell a cloud of shell si covers at p: the masks (cloud fractions) of the
+  /// shells whose condensate layer is its own, at least 0.1.
+  double cloud_share(std::size_t si, const earth::Vec3& p) const {
+    double share = 0;
+    const bool layered = si < scene.condensate_layer_m.size();
+    for (std::size_t s = 0; s < scene.shells.size(); ++s)
+      if (s == si || (layered && s < scene.condensate_layer_m.size() &&
+                      scene.condensate_layer_m[s] == scene.condensate_layer_m[si]))
+        share += scene.shells[s].mask_at(p);
+    return std::max(share, 0.1);
+  }
+  /// shadow_tau of shell si at a place, bilinear between the nodes.
+  double shadow_tau_at(const EarthView::Place& at, std::size_t si) const {
+    if (shadow_tau.empty()) return 0;
+    const std::size_t ns = scene.shells.size();
+    double tau = 0;
+    for (std::size_t q = 0; q < 4; ++q) tau += at.w[q] * shadow_tau[at.node[q] * ns + si];
+    return tau;
+  }
+  void build_shadow_tau() {
+    if (!weather || !earth.has_condensate()) return;
+    const std::size_t ns = scene.shells.size(), nn = earth.node_count();
+    shadow_tau.assign(nn * ns, 0.0f);
+#pragma omp parallel for schedule(static)
+    for (std::size_t k = 0; k < nn; ++k) {
+      const auto [lat, lon] = earth.node_lat_lon_deg(k);
+      const EarthView::Place node{{k, k, k, k}, {1, 0, 0, 0}};
+      for (std::size_t si = 0; si < ns; ++si) {
+        const clouds::CloudTypeParams& cp = scene.shells[si].params();
+        const earth::Vec3 p =
+            (earth::radius_m + 0.5 * (cp.shell_bottom_m + cp.shell_top_m)) * earth::unit_from_latlon(lat, lon);
+        const double share = cloud_share(si, p);
+        const EarthView::LayerCondensate lc = earth.node_condensate_layer(k, si);
+        const double path = lc.path_g_m2 / share;
+        if (!(path > min_path_g_m2)) continue;
+        const double wc = std::clamp(lc.mean_g_m3 / share, min_water_g_m3, max_water_g_m3);
+        const auto [phase, r_e] = particles(wc, lc.temperature_k, earth.ground(node).share[1]);
+        // The path spread over 1 m: its extinction there is the optical depth.
+        shadow_tau[k * ns + si] = static_cast<float>(optics::cloud_optics(phase, path, r_e, vis).extinction_per_m);
+      }
+    }
+  }
   /// Sunlight in band b at 1 AU scaled to the Sun's distance [W m^-2 um^-1, normal to the beam].
   double solar_irradiance(std::size_t b) const { return tables.bands[b]->solar_irradiance * sun_scale; }
 };
 
-// A cloud element's microphysics: phase, water content [g m^-3] and effective radius [um].
+// A cloud element's microphysics: phase, in-cloud water content [g m^-3], effective radius [um]
+// and, from the weather, the in-cloud condensate path [g m^-2] its optical depth carries (0: the
+// water content over the element's own depth).
 struct Microphysics {
   optics::Phase phase;
-  double water_content_g_m3, effective_radius_um;
+  double water_content_g_m3, effective_radius_um, path_g_m2 = 0;
 };
 
-// From the weather where it has condensate: in-cloud water content is GFS's grid-mean condensate
-// over the cloud's share of the cell (the mask, calibrated to cloud cover), phase from the
-// temperature (ice below -15 C), effective radius from the water content for droplets (Martin,
-// Johnson & Spice 1994: r_e = (3 W / (4 pi rho_w k N))^(1/3), N = 100 cm^-3 and k = 0.8 over
-// sea, 300 cm^-3 and 0.67 over land) and from the temperature for ice (Ou & Liou 1995:
-// D_e = 326.3 + 12.42 T + 0.197 T^2 + 0.0012 T^3 um, T in C, -60..-20 C). Else the type's own.
+// From the weather where it has condensate, over the cloud's share of the cell (the masks of the
+// shells sharing its layer, calibrated to cloud cover):
+//  - the optical depth carries the path of the type's layer (CloudScene::condensate_layer_m;
+//    EarthView::condensate_layer) where it exceeds min_path_g_m2, so that the clouds hold the
+//    weather's water whatever their rendered depth;
+//  - the in-cloud water content, for the effective radius, is the condensate's mean over the
+//    element's vertical extent below its top (thickness_m);
+//  - phase from the cloud's temperature, effective radius from the water content (particles()).
+// Else the type's own.
 Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthView::Place& at, double alt,
                           double thickness_m, const earth::Vec3& p, double t_cloud) {
   const clouds::CloudTypeParams& cp = c.scene.shells[si].params();
   Microphysics m{cp.phase, cp.water_content_g_m3, cp.effective_radius_um};
   if (!c.weather) return m;
-  m.phase = t_cloud < 258.15 ? optics::Phase::ice : optics::Phase::water;
   if (c.earth.has_condensate()) {
+    const double share = c.cloud_share(si, p);
     // The condensate's mean over the cloud's vertical extent below its top (a top's own value
     // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops).
     std::array<double, 5> z, q_at;
@@ -653,26 +744,20 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthVie
     c.earth.condensate_g_m3(at, z.data(), z.size(), q_at.data());
     double q = 0;
     for (const double qk : q_at) q += qk / 5;
-    if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / std::max(c.scene.shells[si].mask_at(p), 0.1), 0.01, 3.0);
+    if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / share, min_water_g_m3, max_water_g_m3);
+    const double path = c.earth.condensate_layer(at, si).path_g_m2 / share;
+    if (path > min_path_g_m2) m.path_g_m2 = path;
   }
-  if (m.phase == optics::Phase::water) {
-    const double land = c.earth.ground(at).share[1];
-    const double n_m3 = (100 + 200 * land) * 1e6, k = 0.8 - 0.13 * land;
-    const double r_m = std::cbrt(3 * m.water_content_g_m3 * 1e-3 / (4 * M_PI * 1000 * k * n_m3));
-    m.effective_radius_um = std::clamp(r_m * 1e6, 4.0, 25.0);
-  } else {
-    const double tc = std::clamp(t_cloud - 273.15, -60.0, -20.0);
-    m.effective_radius_um = 0.5 * (326.3 + 12.42 * tc + 0.197 * tc * tc + 0.0012 * tc * tc * tc);
-  }
+  std::tie(m.phase, m.effective_radius_um) = particles(m.water_content_g_m3, t_cloud, c.earth.ground(at).share[1]);
   return m;
 }
 
 // The per-type layers of one band of image rows [y0, y1), and each row's rays and distance to
-// the Earth. The image is rendered in bands of rows whose per-type layers (16 + 12 nb B per pixel
-// and type: 52 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
+// the Earth. The image is rendered in bands of rows whose per-type layers (16 + 16 nb B per pixel
+// and type: 64 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
 // band by band: each type's pass still sweeps many rows with its textures in cache, and the image
-// holds only its outputs (~37 B per pixel for three spectral bands, not ~250 with every type's
-// layers of the whole image: a 10848^2 full disc in 4 GiB, not 27). No pixel's result depends on the
+// holds only its outputs (~37 B per pixel for three spectral bands, not ~290 with every type's
+// layers of the whole image: a 10848^2 full disc in 4 GiB, not 32). No pixel's result depends on the
 // band size: the bands change only the order of independent work (tested bit for bit).
 struct RowBand {
   int rows = 1;                    ///< rows per band
@@ -739,7 +824,8 @@ struct CloudLengths {
 // chance), the rest passes (the mean transmittance, not exp(-mean tau): broken cloud lets the
 // gaps' light through); shells overlap at random. What the clouds scatter forwards joins the
 // diffuse part: the plane-parallel layer of the mean optical depth where there is cloud.
-Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, const CloudLengths* lengths = nullptr) {
+Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const AirSample& air, double mu_sun,
+                  const CloudLengths* lengths = nullptr) {
   Sunlight s;
   if (mu_sun <= 0) return s;
   for (std::size_t b = 0; b < c.band_count(); ++b) {
@@ -753,7 +839,11 @@ Sunlight sunlight(const RenderContext& c, const AirSample& air, double mu_sun, c
     for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
       const double p = lengths->chance[si];
       if (!(p > 0)) continue;
-      const double t = c.shadow_scale[si][b] * c.vis_props[si].extinction_per_m * lengths->length[si] / p;
+      // The weather's cloud as the plane-parallel layer it is in the view (shade_hit), crossed
+      // at the Sun's slant; else the type's own along the path found in the shell.
+      const double tau_v = c.shadow_tau_at(at, si);
+      const double t = c.shadow_scale[si][b] * (tau_v > 0 ? tau_v / std::max(mu_sun, 0.05)
+                                                          : c.vis_props[si].extinction_per_m * lengths->length[si] / p);
       t_direct *= 1 - p + p * std::exp(-t), clear *= 1 - p;
       tau += p * t, omega_tau += p * t * c.shadow_omega[si][b];
     }
@@ -822,9 +912,11 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   // mean over the pixel.
   const double cover = hit.coverage;
   L.coverage = static_cast<float>(cover);
-  // Extinction in the geometric-optics limit: the same in every band.
-  const double extinction_per_m =
-      optics::cloud_optics(m.phase, m.water_content_g_m3, m.effective_radius_um, c.vis).extinction_per_m;
+  // Extinction in the geometric-optics limit: the same in every band. With the weather's
+  // condensate path, the water content that spreads it over the element's vertical depth.
+  const double depth_vertical_m = std::max(hit.depth_m * mu_view, 1.0);
+  const double w_path = m.path_g_m2 > 0 ? m.path_g_m2 / depth_vertical_m : m.water_content_g_m3;
+  const double extinction_per_m = optics::cloud_optics(m.phase, w_path, m.effective_radius_um, c.vis).extinction_per_m;
   L.tau_vis = static_cast<float>(cover * extinction_per_m * hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
   // phase, that phase's typical value (0.86 droplets, 0.77 ice).
@@ -832,7 +924,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
   c.earth.air(at, L.altitude, mu_air, mu_sun, air);
-  const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
+  const Sunlight sun = sunlight(c, at, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
   // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the bands
@@ -858,6 +950,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
     lb[b] = static_cast<float>(cover * rad * air.t_view[b] * up_share);
     lb[nb + b] = static_cast<float>(1 - cover * (1 - trans[b]));
     lb[2 * nb + b] = static_cast<float>(path[b]);
+    lb[3 * nb + b] = static_cast<float>(cover * refl[b]);
   }
 }
 
@@ -909,10 +1002,12 @@ std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Pr
 }
 
 // The ground where a ray meets it: reflected sunlight (Lambertian albedo, and sun glint on open
-// water) and emission, as they reach the sensor, per band; and the air's radiance above it.
+// water) and emission, as they reach the sensor, per band; the air's radiance above it; and its
+// reflectance to diffuse light (the albedo, or 1 - emissivity in a thermal band).
 void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const earth::Vec3& up, const earth::Vec3& d,
                      const CloudLengths* towards_sun, std::array<double, optics::max_band_count>& out,
-                     std::array<double, optics::max_band_count>& path) {
+                     std::array<double, optics::max_band_count>& path,
+                     std::array<double, optics::max_band_count>& reflectance) {
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double z = c.earth.ground_height_m(at);
   std::array<double, optics::max_band_count> sky_down{};
@@ -921,19 +1016,22 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(at, z, mu_view, mu_sun, air);
-  const Sunlight sun = sunlight(c, air, mu_sun, towards_sun);
+  const Sunlight sun = sunlight(c, at, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);
   for (std::size_t b = 0; b < c.band_count(); ++b) {
     const optics::Band& band = *c.tables.bands[b];
     double rad = 0;
+    reflectance[b] = 0;
     if (band.sunlit() && mu_sun > 0) {
       const double albedo = surface::mixed_albedo(ground, band);
       rad += (sun.direct[b] * mu_sun * (albedo + ground.share[0] * glint) + sun.sky[b] * albedo) / M_PI;
+      reflectance[b] = albedo;
     }
     if (band.thermal) {  // emission, and the sky's emission reflected (Kirchhoff: reflectance 1 - e)
       const double e = surface::mixed_emissivity(ground, band);
       rad += e * c.tables.planck[b]->forward(ground.skin_temperature_k) + (1 - e) * sky_down[b];
+      reflectance[b] = std::max(reflectance[b], 1 - e);
     }
     const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_view) : 1.0;
     out[b] = rad * air.t_view[b] * up_share;
@@ -985,10 +1083,14 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
 }
 
 // One pixel's cloud layers seen from the sensor down: each layer's radiance and the air's
-// between the layers, through the layers in front. Returns the visible optical depth; rad,
-// trans and path_above (the air's radiance above the last layer) are per band.
+// between the layers, through the layers in front, with the light the layers reflect between
+// each other (the adding method, diffusely: a layer of reflectance R_s and transmittance T_s
+// under a stack reflecting R_a back down is seen 1 / (1 - R_a R_s) brighter, passes what lies
+// below with T_s / (1 - R_a R_s), and the stack then reflects R_s + T_s^2 R_a / (1 - R_a R_s)).
+// Returns the visible optical depth; rad, trans, path_above (the air's radiance above the last
+// layer) and refl_above (the stack's reflectance seen from below) are per band.
 float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bpx, std::size_t px, const earth::Vec3& d,
-                       RenderImage& img, double* rad, double* trans, double* path_above) {
+                       RenderImage& img, double* rad, double* trans, double* path_above, double* refl_above) {
   const std::size_t ns = rb.ns, nb = c.band_count();
   std::array<std::size_t, weather::cloud_type_count> order{};
   const Layer* pl = &rb.layers[bpx * ns];
@@ -997,7 +1099,7 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
     for (; j > 0 && pl[order[j - 1]].t > pl[s].t; --j) order[j] = order[j - 1];
     order[j] = s;
   }
-  for (std::size_t b = 0; b < nb; ++b) rad[b] = 0, trans[b] = 1, path_above[b] = 0;
+  for (std::size_t b = 0; b < nb; ++b) rad[b] = 0, trans[b] = 1, path_above[b] = 0, refl_above[b] = 0;
   float tau = 0, clear = 1;  // the share of the pixel no layer covers
   for (std::size_t s = 0; s < ns; ++s) {
     const Layer& L = pl[order[s]];
@@ -1014,14 +1116,21 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
     }
     tau += L.tau_vis;
     for (std::size_t b = 0; b < nb; ++b) {  // the air between this layer and the one in front, then the layer
-      const double path = lb[2 * nb + b];
-      rad[b] += trans[b] * (std::max(0.0, path - path_above[b]) + lb[b]);
-      trans[b] *= lb[nb + b];
+      const double path = lb[2 * nb + b], t_s = lb[nb + b], r_s = lb[3 * nb + b];
+      const double between = 1 / (1 - refl_above[b] * r_s);
+      rad[b] += trans[b] * (std::max(0.0, path - path_above[b]) + lb[b] * between);
+      trans[b] *= t_s * between;
+      refl_above[b] = r_s + t_s * t_s * refl_above[b] * between;
       path_above[b] = path;
     }
   }
   return tau;
 }
+
+// A band's transmittance of the clouds in front below which what lies behind them is left out
+// (< 1e-4 of the ground's radiance), and the ground's shadows are not looked for where every
+// band's is: so that whether a band sees the ground does not depend on the others.
+constexpr double ground_seen_min = 1e-4;
 
 // The band's rows into the image: each pixel's cloud layers, then what lies behind them, the
 // ground (its shadows found for the whole row together) or the sky.
@@ -1030,7 +1139,8 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
   const std::size_t nb = c.band_count(), mb = optics::max_band_count;
 #pragma omp parallel
   {
-    std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size());
+    std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size()),
+        refl_above(rad.size());
     std::vector<int> lit;
     std::vector<earth::Vec3> lit_points;
     std::vector<CloudLengths> lengths;
@@ -1043,13 +1153,13 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
         const auto xo = static_cast<std::size_t>(x) * mb;
         img.cloud_optical_depth[px] =
-            composite_layers(c, rb, bpx, px, dirs[x], img, &rad[xo], &trans[xo], &path_above[xo]);
+            composite_layers(c, rb, bpx, px, dirs[x], img, &rad[xo], &trans[xo], &path_above[xo], &refl_above[xo]);
         // The ground points the Sun lights and that show through the clouds: their shadows.
         if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
         const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[x];
         double seen = 0;
         for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[xo + b]);
-        if (seen > 1e-4 && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
+        if (seen > ground_seen_min && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
       }
       if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), c.scene.shells.size(), lengths);
       std::size_t next_lit = 0;
@@ -1058,7 +1168,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
         const auto xo = static_cast<std::size_t>(x) * mb;
         const earth::Vec3& d = dirs[x];
-        std::array<double, optics::max_band_count> bg{}, bg_path{};
+        std::array<double, optics::max_band_count> bg{}, bg_path{}, bg_refl{};
         if (std::isfinite(rb.t_earth[bpx])) {
           const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
           const earth::Geodetic g = earth::geodetic(q);
@@ -1067,14 +1177,17 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
             img.longitude_deg[px] = static_cast<float>(g.lon_deg);
           }
           const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
-          ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path);
+          ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path, bg_refl);
           next_lit += shadowed;
         } else {
           sky_radiance(c, d, bg);
         }
-        for (std::size_t b = 0; b < nb; ++b)
-          img.radiance[b][px] = static_cast<float>(
-              rad[xo + b] + trans[xo + b] * (std::max(0.0, bg_path[b] - path_above[xo + b]) + bg[b]));
+        for (std::size_t b = 0; b < nb; ++b) {  // the ground, as a layer of T = 0 under the clouds
+          const double behind =
+              std::max(0.0, bg_path[b] - path_above[xo + b]) + bg[b] / (1 - refl_above[xo + b] * bg_refl[b]);
+          img.radiance[b][px] =
+              static_cast<float>(rad[xo + b] + (trans[xo + b] > ground_seen_min ? trans[xo + b] * behind : 0.0));
+        }
       }
     }
   }
@@ -1198,7 +1311,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   Progress progress("render", static_cast<std::size_t>(sensor.height) * scene.shells.size() *
                                   static_cast<std::size_t>(k) * static_cast<std::size_t>(k));
   const BandTables tables(params.bands);
-  const EarthView earth_view(weather, sensor, sun, tables.bands, params.atmosphere, params.surface_temperature_k);
+  const EarthView earth_view(weather, sensor, sun, tables.bands, params.atmosphere, params.surface_temperature_k,
+                             scene.condensate_layer_m);
   if (k == 1) {
     RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view, progress);
     img.seconds_atmosphere = earth_view.seconds_to_build();

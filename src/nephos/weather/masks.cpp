@@ -137,6 +137,18 @@ struct Overlap {
 };
 }  // namespace
 
+std::array<std::array<double, 2>, cloud_type_count> condensate_layers_m(const MaskParams& params) {
+  std::array<std::array<double, 2>, cloud_type_count> out{};
+  for (std::size_t t = 0; t < out.size(); ++t) {
+    const CloudTypeMaskParams& a = params.types[t];
+    double bottom = a.band_bottom_m;
+    for (const CloudTypeMaskParams& b : params.types)  // the bands below that a's overlaps
+      if (b.band_bottom_m <= a.band_bottom_m && b.band_top_m < a.band_top_m) bottom = std::max(bottom, b.band_top_m);
+    out[t] = {bottom, a.band_top_m};
+  }
+  return out;
+}
+
 WeatherMasks compute_masks(const WeatherGrid& weather, const MaskParams& params) {
   if (auto miss = missing_for_masks(weather); !miss.empty())
     throw FormatError(fmt::format("weather masks need {} on isobaric levels", fmt::join(miss, ", ")),
@@ -144,6 +156,7 @@ WeatherMasks compute_masks(const WeatherGrid& weather, const MaskParams& params)
   const LatLonGrid& g = weather.grid();
   WeatherMasks out;
   out.grid = g;
+  out.condensate_layer_m = condensate_layers_m(params);
   for (auto& v : out.value) v.assign(g.size(), 0.0f);
 
   double z_lo = 1e30, z_hi = -1e30;

@@ -78,9 +78,17 @@ double cloud_fraction(double relative_humidity, double condensate_kg_kg, double 
 /// blended between (as GFS's fpvs), Alduchov & Eskridge (1996) formulas.
 double saturation_mixing_ratio(double temperature_k, double pressure_pa);
 
+/// The altitudes [m MSL] whose condensate each type's clouds carry, [bottom, top) per type:
+/// its band, from the top of any band it overlaps from below (cirrus, 3-20 km, from the top of
+/// altostratus's 3-7 km), so that no condensate is carried twice. Types of one band (the two
+/// low types) share it.
+std::array<std::array<double, 2>, cloud_type_count> condensate_layers_m(const MaskParams& params);
+
 struct WeatherMasks {
   LatLonGrid grid;
   std::array<std::vector<float>, cloud_type_count> value;  ///< per type, nlat*nlon in grid order
+  /// condensate_layers_m() of the parameters the masks were computed with.
+  std::array<std::array<double, 2>, cloud_type_count> condensate_layer_m = condensate_layers_m(MaskParams());
   const std::vector<float>& operator[](CloudType t) const { return value[static_cast<std::size_t>(t)]; }
 };
 
