@@ -321,7 +321,7 @@ void CloudShell::calibrate() {
   // masks', GFS's) means. Per squeeze class where the weather can lower the shell onto the
   // ground (cloud_top_lifts(): at most half its depth), so that a thinned shell keeps its cover.
   const double max_squeeze = 0.5 * (p_.shell_top_m - p_.shell_bottom_m) - p_.shell_bottom_m;
-  squeeze_classes_ = max_squeeze > 0 ? 9 : 1;
+  squeeze_classes_ = max_squeeze > 0 ? squeeze_class_count : 1;
   inv_squeeze_step_m_ = max_squeeze > 0 ? (squeeze_classes_ - 1) / max_squeeze : 0.0;
   const std::vector<std::vector<double>> g = column_sample();
   bias_ = 0;

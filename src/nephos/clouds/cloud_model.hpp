@@ -344,7 +344,8 @@ class CloudShell {
   void calibrate();
   /// phi at m = k / 1024 for squeeze class j at [j * 1025 + k] (calibrated), else empty.
   std::vector<double> mask_terms_;
-  int squeeze_classes_ = 1;  ///< 1, or 9 for a shell the weather can lower onto the ground
+  static constexpr int squeeze_class_count = 9;  ///< a shell's from no squeeze to half its depth
+  int squeeze_classes_ = 1;  ///< 1, or squeeze_class_count for a shell the weather can lower onto the ground
   double inv_squeeze_step_m_ = 0;
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms

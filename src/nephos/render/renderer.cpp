@@ -907,15 +907,15 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double t_cloud = c.earth.temperature_k(at, L.altitude);
   c.tables.prefetch_planck(t_cloud);
-  const Microphysics m = microphysics(c, si, at, L.altitude, hit.depth_m * mu_view, hit.position, t_cloud);
+  const double depth_vertical_m = hit.depth_m * mu_view;
+  const Microphysics m = microphysics(c, si, at, L.altitude, depth_vertical_m, hit.position, t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
   const double cover = hit.coverage;
   L.coverage = static_cast<float>(cover);
   // Extinction in the geometric-optics limit: the same in every band. With the weather's
   // condensate path, the water content that spreads it over the element's vertical depth.
-  const double depth_vertical_m = std::max(hit.depth_m * mu_view, 1.0);
-  const double w_path = m.path_g_m2 > 0 ? m.path_g_m2 / depth_vertical_m : m.water_content_g_m3;
+  const double w_path = m.path_g_m2 > 0 ? m.path_g_m2 / std::max(depth_vertical_m, 1.0) : m.water_content_g_m3;
   const double extinction_per_m = optics::cloud_optics(m.phase, w_path, m.effective_radius_um, c.vis).extinction_per_m;
   L.tau_vis = static_cast<float>(cover * extinction_per_m * hit.depth_m);
   // The type's asymmetry for its own phase; where the weather's temperature gives the other
