@@ -667,15 +667,17 @@ struct RenderContext {
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
   }
   std::size_t band_count() const { return tables.bands.size(); }
+  /// Whether shells a and b share a condensate layer (a shell shares its own).
+  bool same_layer(std::size_t a, std::size_t b) const {
+    const auto& layers = scene.condensate_layer_m;
+    return a == b || (a < layers.size() && b < layers.size() && layers[a] == layers[b]);
+  }
   /// The share of the cell a cloud of shell si covers at p: the masks (cloud fractions) of the
   /// shells whose condensate layer is its own, at least 0.1.
   double cloud_share(std::size_t si, const earth::Vec3& p) const {
     double share = 0;
-    const bool layered = si < scene.condensate_layer_m.size();
     for (std::size_t s = 0; s < scene.shells.size(); ++s)
-      if (s == si || (layered && s < scene.condensate_layer_m.size() &&
-                      scene.condensate_layer_m[s] == scene.condensate_layer_m[si]))
-        share += scene.shells[s].mask_at(p);
+      if (same_layer(s, si)) share += scene.shells[s].mask_at(p);
     return std::max(share, 0.1);
   }
   /// shadow_tau of shell si at a place, bilinear between the nodes.
@@ -858,8 +860,9 @@ Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const AirS
   return s;
 }
 
-// The cloud towards the Sun from n points, by shell: each shell except `skip` (a cloud's own
-// shell: its self-shading is the layer's).
+// The cloud towards the Sun from n points, by shell: each shell but those of the condensate
+// layer of `skip` (a cloud's own layer: its self-shading is the layer's reflectance; the two low
+// types are one layer of cloud, split by the updraft); skip = the shell count: every shell.
 void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::size_t n, std::size_t skip,
                        std::vector<CloudLengths>& out) {
   out.assign(n, CloudLengths{});
@@ -869,7 +872,7 @@ void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::s
   for (std::size_t i = 0; i < n; ++i) footprint[i] = c.spread * glm::length(points[i] - c.sensor.position);
   const int steps = std::max(6, c.params.steps / 2);
   for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
-    if (si == skip) continue;
+    if (skip < c.scene.shells.size() && c.same_layer(si, skip)) continue;
     cloud_length_towards(c.scene.shells[si], points, c.sun_dir, n, steps, len.data(),
                          c.spread > 0 ? footprint.data() : nullptr, chance.data());
     for (std::size_t i = 0; i < n; ++i) out[i].length[si] = len[i], out[i].chance[si] = chance[i];
