@@ -260,13 +260,16 @@ void EarthView::condensate_g_m3(const Place& s, const double* z, std::size_t n, 
 }
 
 EarthView::LayerCondensate EarthView::condensate_layer(const Place& s, std::size_t l) const {
+  // The path bilinear; its mean and centroid temperature weighted by each node's share of it
+  // (a node without condensate has neither).
   LayerCondensate out;
   for (std::size_t q = 0; q < 4; ++q) {
     if (!(s.w[q] > 0) || l >= nodes_[s.node[q]].layers.size()) continue;
     const LayerCondensate& n = nodes_[s.node[q]].layers[l];
-    out.path_g_m2 += s.w[q] * n.path_g_m2, out.mean_g_m3 += s.w[q] * n.mean_g_m3;
-    out.temperature_k += s.w[q] * n.temperature_k;
+    const double w = s.w[q] * n.path_g_m2;
+    out.path_g_m2 += w, out.mean_g_m3 += w * n.mean_g_m3, out.temperature_k += w * n.temperature_k;
   }
+  if (out.path_g_m2 > 0) out.mean_g_m3 /= out.path_g_m2, out.temperature_k /= out.path_g_m2;
   return out;
 }
 

@@ -59,8 +59,9 @@ class EarthView {
   struct LayerCondensate {
     double path_g_m2 = 0, mean_g_m3 = 0, temperature_k = 0;
   };
-  /// Layer l of the constructor's condensate_layers at a place (bilinear between the nodes,
-  /// each integrating its profile in 64 steps; all 0 where the weather has no condensate).
+  /// Layer l of the constructor's condensate_layers at a place: the nodes' paths bilinear, their
+  /// means and temperatures weighted by their shares of it (each node integrates its profile in
+  /// 64 steps; all 0 where the weather has no condensate).
   LayerCondensate condensate_layer(const Place& at, std::size_t l) const;
   /// The nodes' count and geodetic positions [deg] (condensate_layer()'s node values apart).
   std::size_t node_count() const { return nodes_.size(); }
