@@ -72,8 +72,8 @@ TEST(CloudShell, CalibratedMaskIsTheCoverSeenFromAbove) {
   // share m of vertical columns with cloud somewhere in them, for every m, barriers included.
   // 4000 columns: binomial standard error <= 0.008; the calibration's 16 384-column quantiles
   // add <= 0.004; its columns are sampled at 48 heights, these at 25 m, which finds a few more
-  // cloudy columns (measured +0.00 to +0.02): bound 0.035. Fault caught: the calibration on the
-  // mid-shell sphere's points, as before (0.25 gave 0.41, 0.5 gave 0.65).
+  // cloudy columns (measured -0.01 to +0.02): bound 0.035. Fault caught: the calibration on the
+  // mid-shell sphere's points, as before (0.5 gave 0.56, 0.75 gave 0.81).
   for (float m : {0.05f, 0.1f, 0.25f, 0.5f, 0.75f, 0.9f, 0.95f}) {
     const double f = column_cover(shell_with_mask(m));
     std::printf("mask %.2f: cover %.4f\n", m, f);
@@ -87,7 +87,7 @@ TEST(CloudShell, AShellTheWeatherThinsOnTheGroundKeepsItsCover) {
   // on the ground only thins from the top, and its calibration (per squeeze class, linear
   // between them) keeps the cover its mask gives: low cumulus (0-6000 m) lowered by 1000 m (between
   // classes) and 2800 m, same bound as above. Fault caught: one calibration for every lift
-  // (0.5 gave 0.30 at 2800 m).
+  // (0.5 gave 0.35 at 1000 m, 0.03 at 2800 m).
   CloudTypeParams p = CloudModelParams()[CloudType::low_cumulus];
   for (double lift : {-1000.0, -2800.0})
     for (float m : {0.25f, 0.5f, 0.9f}) {
