@@ -853,8 +853,8 @@ namespace nephos::render {
 // see CloudShell.FilteredCoverageIsTheFootprintsShareOfCloudyPoints), so the lengths agree to
 // its accuracy: measured -37 % to -2 % (short where cloud is sparse: mask 0.1, a cover of 0.1
 // seen from above, -20 to -37 %; 0.6 -2 to -9 %), mean |error| 15.5 %; bounds 40 % each, 20 % on
-// the mean. Fault caught: steps whose filtered distance lies between u_min and 0 left out (-30 %
-// to -100 %, mean 75 %).
+// the mean. Fault caught: steps whose filtered distance lies between u_min and 0 left out (mean
+// |error| 88 %).
 TEST(Shadows, AFilteredShadowRaysLengthIsItsFootprintsMean) {
   const auto& defaults = clouds::CloudModelParams();
   auto tex = std::make_shared<const clouds::FractalTextures>(clouds::FractalTextures::from(
