@@ -631,10 +631,10 @@ struct RenderContext {
   /// and its scaled single-scattering albedo, for the shadows it casts.
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
   /// [node * shells + shell] the vertical visible optical depth of each shell's clouds at each
-  /// weather node (EarthView's) from the weather's condensate, as microphysics() gives its
-  /// elements (the layer's path over the cloud's share; the water content for the effective
-  /// radius its mean where it is, phase and radius from its temperature); 0 where it has none.
-  /// What the shadows a shell casts dim with.
+  /// weather node (EarthView's) from the weather's condensate: the layer's path over the cloud's
+  /// share, as microphysics() gives its elements; with no element's top to read below, the
+  /// effective radius from the layer's mean where its condensate is and the phase from the
+  /// temperature there. 0 where it has none. What the shadows a shell casts dim with.
   std::vector<float> shadow_tau;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
