@@ -22,7 +22,9 @@ GFS's own 6-hour means: ulwrf at nominalTop over the GOES-East disc (a geostatio
 throughout them, seen from a geostationary sensor under the Sun at the window's middle (GOES-East
 sees little daylight at 00 and 12 UTC). GFS's fluxes come from its radiation code (RRTMG) and
 its own clouds: a reference that owes nothing to nephos. It also reports the same with the clouds
-left where they are at the valid time (clouds_fixed_at_valid_time), and (gfs_cover_fits) how well
+left where they are at the valid time (clouds_fixed_at_valid_time), the long-wave bias by the
+cells' view zenith (olr_by_view_zenith), the long wave with each cell seen from above
+(olr_nadir_views: nadir_window_olr), and (gfs_cover_fits) how well
 GFS's own 6-hour and valid-time layer cloud covers explain the same fluxes in a least-squares fit
 (docs/VALIDATION.md).
 
@@ -50,6 +52,9 @@ SOLAR_WEIGHTS = np.array([0.30, 0.22, 0.26, 0.06, 0.09, 0.07])
 GEO_LON, GEO_RADIUS_M, EARTH_RADIUS_M = -75.2, 42164.0e3, 6371008.8
 MAX_VZA = 70.0  # deg: cells the sensor sees at most this far from nadir
 WINDOW_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the middles of the 6-hour window's thirds
+# Nadir views for the long wave (nadir_window_olr): sub-points 25 deg apart, seen from the
+# geostationary distance through a field of view that reaches 20 deg of arc around each
+NADIR_STEP_DEG, NADIR_ALTITUDE_KM, NADIR_FOV_DEG = 25.0, 35786.0, 8.0
 
 
 def unit(lat, lon):
@@ -196,6 +201,74 @@ def side_by_side(path, a, b, lo, hi, rows, cols, scale=4):
     write_png(path, np.repeat(np.repeat(img, scale, axis=0), scale, axis=1))
 
 
+def ohring_olr(img):
+    """The outgoing long-wave flux [W m-2] of each pixel from its 11.2 um brightness temperature
+    (Ohring, Gruber & Ellingson 1984)."""
+    tb = img["brightness_temperature_lwir11"]
+    return STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
+
+
+def great_circle_deg(lat1, lon1, lat2, lon2):
+    return np.degrees(np.arccos(np.clip(np.sum(unit(lat1, lon1) * unit(lat2, lon2), axis=-1), -1, 1)))
+
+
+def nadir_views():
+    """Sub-points of the nadir views that see every cell of the GOES-East disc near its zenith:
+    rows NADIR_STEP_DEG apart in latitude, NADIR_STEP_DEG of arc apart along each row."""
+    views = []
+    for lat0 in np.arange(-75.0, 75.1, NADIR_STEP_DEG):
+        dlon = NADIR_STEP_DEG / math.cos(math.radians(lat0))
+        for k in range(-int(180 / dlon), int(180 / dlon) + 1):
+            lon0 = (GEO_LON + k * dlon + 180) % 360 - 180
+            if great_circle_deg(lat0, lon0, 0.0, GEO_LON) < MAX_VZA + NADIR_STEP_DEG:
+                views.append((float(lat0), float(lon0)))
+    return views
+
+
+def nadir_window_olr(scene, w, valid, pixels, at_h):
+    """The long-wave estimate of window_means(carried=True) with each cell seen from above: at
+    each instant, the cells from the nadir view (NADIR_ALTITUDE_KM, NADIR_FOV_DEG) whose
+    sub-point is nearest (their view zenith below ~20 deg), as the window-channel conversion
+    expects (NOAA's operational OLR corrects its window radiances to nadir before it; Gruber &
+    Krueger 1984, Bull. Amer. Meteor. Soc. 65, 958). at_h: where the scene stands [h from the
+    valid time]. Returns the cells' flux and the largest distance of a cell from its view's
+    sub-point [deg]."""
+    lats, lons = w.latitudes, w.longitudes
+    la, lo = np.meshgrid(lats, lons, indexing="ij")
+    views = nadir_views()
+    olr_sum, n_min, farthest = 0.0, np.inf, 0.0
+    for hours in WINDOW_INSTANTS_H:
+        scene.advance(-hours - at_h)
+        at_h = -hours
+        stamp = (valid - timedelta(hours=hours)).strftime("%Y-%m-%dT%H:%M:%SZ")
+        nearest, flux, count = np.full(la.shape, np.inf), np.full(la.shape, np.nan), np.zeros(la.shape)
+        for lat0, lon0 in views:
+            img = scene.render(sensor=f"leo:{lat0},{lon0},{NADIR_ALTITUDE_KM},{NADIR_FOV_DEG}", size=(pixels, pixels),
+                               bands=["lwir11"], time=stamp)
+            g, n = grid_mean(ohring_olr(img), img["latitude"], img["longitude"], lats, lons)
+            d = great_circle_deg(la, lo, lat0, lon0)
+            take = (n >= 20) & (d < nearest)
+            flux[take], nearest[take], count[take] = g[take], d[take], n[take]
+        olr_sum, n_min = olr_sum + flux, np.minimum(n_min, count)
+        seen = view_zenith_deg(la, lo, GEO_LON) < MAX_VZA
+        farthest = max(farthest, float(np.nanmax(np.where(seen, nearest, np.nan))))
+    olr = olr_sum / len(WINDOW_INSTANTS_H)
+    olr[(n_min < 20) | (view_zenith_deg(la, lo, GEO_LON) >= MAX_VZA)] = np.nan
+    return olr, farthest
+
+
+def by_view_zenith(olr, gfs, la, lo, area):
+    """Bias and correlation of the GOES-East estimate in bands of the cells' view zenith [deg]."""
+    vz = view_zenith_deg(la, lo, GEO_LON)
+    rows = []
+    for lo_deg, hi_deg in ((0, 35), (35, 50), (50, 60), (60, 70)):
+        inside = (vz >= lo_deg) & (vz < hi_deg)
+        st = weighted_stats(np.where(inside, olr, np.nan), gfs, area)
+        rows.append({"view_zenith_deg": [lo_deg, hi_deg], "cells": st["cells"], "bias": st["bias"],
+                     "correlation": st["correlation"]})
+    return rows
+
+
 def window_means(scene, w, valid, size, sw_lon, carried):
     """nephos's outgoing long-wave flux and albedo on the weather's cells, as GFS's 6-hour means are
     defined: rendered at WINDOW_INSTANTS_H before the valid time; long wave over the GOES-East
@@ -216,9 +289,7 @@ def window_means(scene, w, valid, size, sw_lon, carried):
         stamp = when.strftime("%Y-%m-%dT%H:%M:%SZ")
         if carried or hours == WINDOW_INSTANTS_H[0]:  # the long wave does not see the Sun move
             img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
-            tb = img["brightness_temperature_lwir11"]
-            olr = STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
-            olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, olr, np.nan)
+            olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, ohring_olr(img), np.nan)
             g, n = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
         olr_sum, n_olr = olr_sum + g, np.minimum(n_olr, n)
         sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS, time=stamp)
@@ -257,6 +328,8 @@ def main():
     # The clouds as they are at the valid time, then carried back through the window by the wind.
     fixed_olr, fixed_alb = window_means(scene, w, valid, size, sw_lon, carried=False)
     olr_grid, alb_grid = window_means(scene, w, valid, size, sw_lon, carried=True)
+    # The same clouds seen from above each cell (the carried run left the scene at the last instant).
+    nadir_olr, farthest = nadir_window_olr(scene, w, valid, max(120, args.size // 3), -WINDOW_INSTANTS_H[-1])
     la, lo = np.meshgrid(lats, lons, indexing="ij")
     area = np.cos(np.radians(la))
     # GFS: outgoing long-wave; short wave over the insolation of its 6-hour window, on cells lit
@@ -274,6 +347,9 @@ def main():
         "longwave_sensor": f"geo:{GEO_LON}", "shortwave_sensor": f"geo:{sw_lon}",
         "olr": weighted_stats(olr_grid, gfs_olr, area),
         "albedo": weighted_stats(alb_grid, gfs_albedo, area),
+        "olr_by_view_zenith": by_view_zenith(olr_grid, gfs_olr, la, lo, area),
+        "olr_nadir_views": dict(weighted_stats(np.where(np.isfinite(olr_grid), nadir_olr, np.nan), gfs_olr, area),
+                                farthest_from_view_centre_deg=farthest),
         "clouds_fixed_at_valid_time": {"olr": weighted_stats(fixed_olr, gfs_olr, area),
                                        "albedo": weighted_stats(fixed_alb, gfs_albedo, area)},
         "gfs_cover_fits": reference_fits(w, gfs_olr, gfs_albedo, np.isfinite(olr_grid) & np.isfinite(gfs_olr),
