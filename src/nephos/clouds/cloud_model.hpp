@@ -196,6 +196,13 @@ class CloudShell {
                           const double* footprint_m = nullptr) const;
   /// The mask value seen at p (after the mask's displacement).
   double mask_at(const earth::Vec3& p) const;
+  /// The unit direction whose weather the cloud at p carries: where the wind (advance_scene)
+  /// brought the mask seen at p from; p's own direction while the shell is not carried.
+  earth::Vec3 carried_from(const earth::Vec3& p) const { return maps_[0].upwind(p / glm::length(p)); }
+  /// Whether the wind has carried the shell's clouds away from where the weather puts them.
+  bool carried() const { return !maps_[0].is_identity(); }
+  /// The weather's own cloud fraction (the mask, not carried) in unit direction u.
+  double weather_mask(const earth::Vec3& u) const { return mask_->sample(u); }
   /// Lifts the shell per location: at a point whose displaced mask direction is u the cloud
   /// function's altitude barriers stand lift(u) metres higher (the weather's own cloud tops;
   /// cloud_top_lifts()), the bottom one no lower than the ground. A cube map of the mask's

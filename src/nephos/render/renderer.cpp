@@ -632,9 +632,10 @@ struct RenderContext {
   std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
   /// [node * shells + shell] the vertical visible optical depth of each shell's clouds at each
   /// weather node (EarthView's) from the weather's condensate: the layer's path over the cloud's
-  /// share, as microphysics() gives its elements; with no element's top to read below, the
-  /// effective radius from the layer's mean where its condensate is and the phase from the
-  /// temperature there. 0 where it has none. What the shadows a shell casts dim with.
+  /// share (the weather's own masks, not carried), as microphysics() gives its elements; with no
+  /// element's top to read below, the effective radius from the layer's mean where its
+  /// condensate is and the phase from the temperature there. 0 where it has none. What the
+  /// shadows a shell casts dim with, read where its cloud came from (weather_place()).
   std::vector<float> shadow_tau;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
@@ -672,13 +673,22 @@ struct RenderContext {
     const auto& layers = scene.condensate_layer_m;
     return a == b || (a < layers.size() && b < layers.size() && layers[a] == layers[b]);
   }
-  /// The share of the cell a cloud of shell si covers at p: the masks (cloud fractions) of the
-  /// shells whose condensate layer is its own, at least 0.1.
-  double cloud_share(std::size_t si, const earth::Vec3& p) const {
+  /// The share of the cell a cloud of shell si covers: the masks (cloud fractions) of the shells
+  /// whose condensate layer is its own, at least 0.1; as the wind carried them to p, or (carried
+  /// false) as the weather puts them in unit direction p.
+  double cloud_share(std::size_t si, const earth::Vec3& p, bool carried = true) const {
     double share = 0;
     for (std::size_t s = 0; s < scene.shells.size(); ++s)
-      if (same_layer(s, si)) share += scene.shells[s].mask_at(p);
+      if (same_layer(s, si)) share += carried ? scene.shells[s].mask_at(p) : scene.shells[s].weather_mask(p);
     return std::max(share, 0.1);
+  }
+  /// The place whose weather (condensate, temperature) shell si's cloud at p carries: where the
+  /// wind brought it from (CloudShell::carried_from), `here` while the shell is not carried.
+  EarthView::Place weather_place(std::size_t si, const earth::Vec3& p, const EarthView::Place& here) const {
+    const clouds::CloudShell& shell = scene.shells[si];
+    if (!shell.carried()) return here;
+    const earth::Geodetic g = earth::geodetic(shell.carried_from(p));
+    return earth.place(g.lat_deg, g.lon_deg);
   }
   /// shadow_tau of shell si at a place, bilinear between the nodes.
   double shadow_tau_at(const EarthView::Place& at, std::size_t si) const {
@@ -697,10 +707,7 @@ struct RenderContext {
       const auto [lat, lon] = earth.node_lat_lon_deg(k);
       const EarthView::Place node{{k, k, k, k}, {1, 0, 0, 0}};
       for (std::size_t si = 0; si < ns; ++si) {
-        const clouds::CloudTypeParams& cp = scene.shells[si].params();
-        const earth::Vec3 p =
-            (earth::radius_m + 0.5 * (cp.shell_bottom_m + cp.shell_top_m)) * earth::unit_from_latlon(lat, lon);
-        const double share = cloud_share(si, p);
+        const double share = cloud_share(si, earth::unit_from_latlon(lat, lon), false);
         const EarthView::LayerCondensate lc = earth.node_condensate_layer(k, si);
         const double path = lc.path_g_m2 / share;
         if (!(path > min_path_g_m2)) continue;
@@ -826,8 +833,8 @@ struct CloudLengths {
 // chance), the rest passes (the mean transmittance, not exp(-mean tau): broken cloud lets the
 // gaps' light through); shells overlap at random. What the clouds scatter forwards joins the
 // diffuse part: the plane-parallel layer of the mean optical depth where there is cloud.
-Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const AirSample& air, double mu_sun,
-                  const CloudLengths* lengths = nullptr) {
+Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const earth::Vec3& point, const AirSample& air,
+                  double mu_sun, const CloudLengths* lengths = nullptr) {
   Sunlight s;
   if (mu_sun <= 0) return s;
   for (std::size_t b = 0; b < c.band_count(); ++b) {
@@ -843,7 +850,7 @@ Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const AirS
       if (!(p > 0)) continue;
       // The weather's cloud as the plane-parallel layer it is in the view (shade_hit), crossed
       // at the Sun's slant; else the type's own along the path found in the shell.
-      const double tau_v = c.shadow_tau_at(at, si);
+      const double tau_v = c.shadow_tau_at(c.weather_place(si, point, at), si);
       const double t = c.shadow_scale[si][b] * (tau_v > 0 ? tau_v / std::max(mu_sun, 0.05)
                                                           : c.vis_props[si].extinction_per_m * lengths->length[si] / p);
       t_direct *= 1 - p + p * std::exp(-t), clear *= 1 - p;
@@ -907,11 +914,13 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double mu_air = std::max(0.02, -glm::dot(up, dir));          // the air's path to the sensor
   const double mu_sun = glm::dot(c.sun_dir, up);                     // sine of the Sun's elevation here
   const double mu_normal = glm::dot(hit.normal, c.sun_dir);
-  const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
-  const double t_cloud = c.earth.temperature_k(at, L.altitude);
+  // The air and the Sun's path through it are here; the cloud's own temperature and condensate
+  // are the weather's where the wind brought it from.
+  const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg), origin = c.weather_place(si, hit.position, at);
+  const double t_cloud = c.earth.temperature_k(origin, L.altitude);
   c.tables.prefetch_planck(t_cloud);
   const double depth_vertical_m = hit.depth_m * mu_view;
-  const Microphysics m = microphysics(c, si, at, L.altitude, depth_vertical_m, hit.position, t_cloud);
+  const Microphysics m = microphysics(c, si, origin, L.altitude, depth_vertical_m, hit.position, t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
   const double cover = hit.coverage;
@@ -927,7 +936,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
   c.earth.air(at, L.altitude, mu_air, mu_sun, air);
-  const Sunlight sun = sunlight(c, at, air, mu_sun, towards_sun);
+  const Sunlight sun = sunlight(c, at, hit.position, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
   // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the bands
@@ -1019,7 +1028,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
   c.earth.air(at, z, mu_view, mu_sun, air);
-  const Sunlight sun = sunlight(c, at, air, mu_sun, towards_sun);
+  const Sunlight sun = sunlight(c, at, up, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);
   for (std::size_t b = 0; b < c.band_count(); ++b) {
