@@ -142,8 +142,8 @@ void print_aliasing(const clouds::CloudScene& every, int px, int k, const earth:
   const auto [pv, pt] = rms_difference(render::render(every, sensor, sun, point, &w), ref);
   std::cout << fmt::format(
       "aliasing at {0}^2, every type, against {1} unfiltered rays per pixel: RMS difference of 1 ray per pixel, "
-      "filtered: visible {2:.1f} W m-2 sr-1 um-1 (goal <= 17), 10.35 um {3:.2f} K (goal <= 5); unfiltered: visible "
-      "{4:.1f}, 10.35 um {5:.2f} K\n",
+      "filtered: visible {2:.2f} W m-2 sr-1 um-1 (goal <= 17), 10.35 um {3:.2f} K (goal <= 5); unfiltered: visible "
+      "{4:.2f}, 10.35 um {5:.2f} K\n",
       px, k * k, fv, ft, pv, pt);
 }
 

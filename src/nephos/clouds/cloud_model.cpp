@@ -618,11 +618,15 @@ void CloudShell::build_term_mips() {
     sigma_max_ = std::sqrt(sigma_max_ * sigma_max_ + term.weight * term.weight * mip.stats[0].variance);
     tm.mean = mip.stats.back().mean;
     const double w = term.weight;
+    const double gradient_0 = mip.stats[0].gradient * std::pow((*tex_)[i].size() / term.length_scale_m, 2);
     if (mip.stats.size() > TermMips::max_levels)
       throw ValueError(fmt::format("a mip pyramid of {} levels: at most {}", mip.stats.size(), TermMips::max_levels));
     for (std::size_t l = 0; l < mip.stats.size(); ++l) {
       const noise::TextureStats& st = mip.stats[l];
       tm.lost_variance[l] = w * w * (mip.stats[0].variance - st.variance);
+      // Per voxel^2 to per m^2: level l has size / 2^l voxels per tile (none past the last).
+      const double voxels_per_m = std::ldexp((*tex_)[i].size(), -static_cast<int>(l)) / term.length_scale_m;
+      tm.lost_gradient[l] = w * w * (gradient_0 - st.gradient * voxels_per_m * voxels_per_m);
       tm.hi[l] = std::max(w * st.lo, w * st.hi);
     }
     tm.top_level = static_cast<int>(mip.stats.size()) - 1;
@@ -634,22 +638,26 @@ void CloudShell::build_detail_tables() {
   // Footprints from 1 m to 2^26 m (beyond the Earth's size), 8 nodes per octave.
   const std::size_t n = 26 * footprint_nodes_per_octave + 1;
   detail_length_.assign(n, std::numeric_limits<double>::infinity()), detail_variance_.assign(n, 0.0);
+  detail_gradient_variance_.assign(n, 0.0);
   for (std::size_t k = 0; k < n; ++k) {
     const double log2_s = static_cast<double>(k) / footprint_nodes_per_octave;
-    double var = 0, rate = 0;  // sigma^2, and its share-weighted sum of the bands' rates 1 / length
+    double var = 0, rate = 0, grad = 0;  // sigma^2, its share-weighted sum of the bands' rates 1 / length; |grad|^2
     for (std::size_t i = 0; i < 3; ++i) {
       const TermMips& tm = term_mips_[i];
       if (tm.top_level < 1 || tm.top <= 0) continue;
       const FractalTerm& term = p_.fractals[i];
       const double voxel_m = term.length_scale_m / (*tex_)[static_cast<int>(i)].size();
       const double x = std::clamp(log2_s + tm.log2_voxels_per_m, 0.0, tm.top);
+      const int lx = std::min(static_cast<int>(x), tm.top_level - 1);
+      const auto lg = static_cast<std::size_t>(lx);
+      grad += tm.lost_gradient[lg] + (x - lx) * (tm.lost_gradient[lg + 1] - tm.lost_gradient[lg]);
       for (int l = 0; l < tm.top_level && l < x; ++l) {
         const auto lu = static_cast<std::size_t>(l);
         const double share = std::min(1.0, x - l) * (tm.lost_variance[lu + 1] - tm.lost_variance[lu]);
         var += share, rate += share / (voxel_m * std::exp2(l + 0.5));
       }
     }
-    detail_variance_[k] = var;
+    detail_variance_[k] = var, detail_gradient_variance_[k] = grad;
     if (var > 0) detail_length_[k] = var / rate;
   }
   log_clear_.resize(coverage_.size());

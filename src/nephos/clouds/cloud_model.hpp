@@ -183,6 +183,13 @@ class CloudShell {
   /// length L through cloud of coverage c then misses it with chance (1 - c)^(L / length), as if
   /// in L / length independent tries. Infinite where no detail is averaged away.
   double detail_length_m(double footprint_m) const { return footprint_table(detail_length_, footprint_m); }
+  /// The mean squared gradient [1/m^2] that a footprint footprint_m wide averages away: per
+  /// term, its weight^2 times its textures' (noise::TextureStats::gradient) at level 0 less at
+  /// the footprint's level (linear between levels), in tiles of length_scale_m. What a filtered
+  /// normal, the footprint's mean gradient, leaves out of the surface's.
+  double detail_gradient_variance(double footprint_m) const {
+    return footprint_table(detail_gradient_variance_, footprint_m);
+  }
   double u_min() const { return u_min_; }  ///< -max Z: below, no sub-pixel detail reaches the threshold
   double u_max() const { return u_max_; }  ///< -min Z: above, all of it does
   /// CF at n points and its gradient [1/m] there, for surface normals. The fractal terms'
@@ -270,6 +277,7 @@ class CloudShell {
     double log2_voxels_per_m = 0, mean = 0, mean_weighted = 0, top = 0;
     int top_level = 0;
     std::array<double, max_levels> lost_variance{}, hi{};
+    std::array<double, max_levels> lost_gradient{};  ///< the squared gradient averaged away [1/m^2]
     /// Each level's texture addressing (level 0's at the mean level and past it, where no
     /// texture is read).
     std::array<noise::Texture3D::Addressing, max_levels> addressing{};
@@ -290,6 +298,7 @@ class CloudShell {
   double sigma_max_ = 0;  ///< sigma of a footprint that averages every term away
   static constexpr int footprint_nodes_per_octave = 8;
   std::vector<double> detail_length_, detail_variance_;  ///< at footprints 2^(i / 8) m
+  std::vector<double> detail_gradient_variance_;         ///< likewise
   std::vector<double> log_clear_;                        ///< log_clear() at coverage_'s nodes
   std::array<double, z_node_count> z_nodes_{};
   void build_detail_tables();

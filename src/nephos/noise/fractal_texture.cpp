@@ -240,19 +240,24 @@ Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n) {
 
 TextureStats texture_stats(const Texture3D& t) {
   const int n = t.size();
-  double sum = 0, sum2 = 0;
+  double sum = 0, sum2 = 0, diff2 = 0;
   int lo = 255, hi = 0;
+  auto at = [&t, n](int i, int j, int k) {
+    return static_cast<int>(t.data()[t.index((i + n) % n, (j + n) % n, (k + n) % n)]);
+  };
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j) {
       const Texture3D::Texel* row =
           t.data() + t.offset_y(static_cast<unsigned>(j)) + t.offset_z(static_cast<unsigned>(k));
       for (int i = 0; i < n; ++i) {
         const int v = row[t.offset_x(static_cast<unsigned>(i))];
+        const int dx = at(i + 1, j, k) - v, dy = at(i, j + 1, k) - v, dz = at(i, j, k + 1) - v;
         sum += v, sum2 += static_cast<double>(v) * v, lo = std::min(lo, v), hi = std::max(hi, v);
+        diff2 += static_cast<double>(dx * dx + dy * dy + dz * dz);
       }
     }
-  const double count = static_cast<double>(n) * n * n, m = texel_scale * sum / count;
-  return {m, std::max(0.0, texel_scale * texel_scale * sum2 / count - m * m), texel_scale * lo, texel_scale * hi};
+  const double count = static_cast<double>(n) * n * n, m = texel_scale * sum / count, s2 = texel_scale * texel_scale;
+  return {m, std::max(0.0, s2 * sum2 / count - m * m), texel_scale * lo, texel_scale * hi, s2 * diff2 / count};
 }
 
 Texture3D half_size(const Texture3D& t) {

@@ -223,9 +223,11 @@ double fractal_value(const FractalSpec& spec, std::uint64_t seed, double x, doub
 /// maps to 0 and maximum to 1. Deterministic from `seed` for any thread count.
 Texture3D bake(const FractalSpec& spec, std::uint64_t seed, int n);
 
-/// The statistics of a texture's voxels, each in [0, 1] (variance in [0, 1]^2).
+/// The statistics of a texture's voxels, each in [0, 1] (variance in [0, 1]^2), and
+/// `gradient`: the mean squared difference between neighbouring voxels, summed over the three
+/// axes (periodic), the mean squared gradient of its interpolant in [0, 1]^2 per voxel^2.
 struct TextureStats {
-  double mean = 0, variance = 0, lo = 0, hi = 0;
+  double mean = 0, variance = 0, lo = 0, hi = 0, gradient = 0;
 };
 TextureStats texture_stats(const Texture3D& t);
 

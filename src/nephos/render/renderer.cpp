@@ -478,18 +478,19 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // Depth: from the surface to the end of the crossing step, then the steps after it. Filtered:
     // the expected length of cloud along the path over the chance that the ray meets any.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
-    if (spread > 0) {
-      hit.coverage = w.shown[j];
-      hit.depth_m = w.soft_length[j] / w.coverage[j];
-    }
     const earth::Vec3& g = w.grads[j];
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
+    if (spread > 0) {
+      hit.coverage = w.shown[j];
+      hit.depth_m = w.soft_length[j] / w.coverage[j];
+      hit.coherence = gl * gl / (gl * gl + shell.detail_gradient_variance(w.footprint[j]));
+    }
     // A partial hit (the filtered function never crosses: cloud smaller than the footprint) is
     // at the ray's largest u, where the gradient is across the ray. The sub-pixel clouds' visible
     // surface, area-weighted, faces the sensor (Cauchy: the visible normals of a closed surface
     // sum to its projected area along the view): their mean normal is -dir.
-    if (spread > 0 && !(w.u_max[j] > 0)) hit.normal = -dir;
+    if (spread > 0 && !(w.u_max[j] > 0)) hit.normal = -dir, hit.coherence = 0;
   }
 }
 
@@ -514,6 +515,11 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
     march_steps(shell, o, steps, nr, w);
   const std::size_t nh = refine_crossings(shell, o, bisection_iterations, spread, nr, w);
   write_hits(shell, o, spread, nh, w, hits);
+}
+
+double facets_facing_every_way(double cos_phase) {
+  const double c = std::clamp(cos_phase, -1.0, 1.0), a = std::acos(c);
+  return 2.0 / 3.0 * (std::sin(a) + (M_PI - a) * c) / M_PI;
 }
 
 std::pair<double, double> sub_pixel_offset(int x, int y, int i, int j, int k, bool stratified, std::uint64_t seed) {
@@ -837,6 +843,17 @@ Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const eart
                   double mu_sun, const CloudLengths* lengths = nullptr) {
   Sunlight s;
   if (mu_sun <= 0) return s;
+  // Per shell, the visible optical depth of its cloud along the beam where the beam meets it: the
+  // weather's cloud as the plane-parallel layer it is in the view (shade_hit), crossed at the
+  // Sun's slant; else the type's own along the path found in the shell.
+  std::array<double, weather::cloud_type_count> tau_beam{};
+  for (std::size_t si = 0; lengths && si < c.scene.shells.size(); ++si) {
+    const double p = lengths->chance[si];
+    if (!(p > 0)) continue;
+    const double tau_v = c.shadow_tau_at(c.weather_place(si, point, at), si);
+    tau_beam[si] =
+        tau_v > 0 ? tau_v / std::max(mu_sun, 0.05) : c.vis_props[si].extinction_per_m * lengths->length[si] / p;
+  }
   for (std::size_t b = 0; b < c.band_count(); ++b) {
     if (!c.tables.bands[b]->sunlit()) continue;
     const double e0 = c.solar_irradiance(b) * air.t_sun[b];
@@ -848,11 +865,7 @@ Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const eart
     for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
       const double p = lengths->chance[si];
       if (!(p > 0)) continue;
-      // The weather's cloud as the plane-parallel layer it is in the view (shade_hit), crossed
-      // at the Sun's slant; else the type's own along the path found in the shell.
-      const double tau_v = c.shadow_tau_at(c.weather_place(si, point, at), si);
-      const double t = c.shadow_scale[si][b] * (tau_v > 0 ? tau_v / std::max(mu_sun, 0.05)
-                                                          : c.vis_props[si].extinction_per_m * lengths->length[si] / p);
+      const double t = c.shadow_scale[si][b] * tau_beam[si];
       t_direct *= 1 - p + p * std::exp(-t), clear *= 1 - p;
       tau += p * t, omega_tau += p * t * c.shadow_omega[si][b];
     }
@@ -898,6 +911,15 @@ void path_radiance(const RenderContext& c, const AirSample& air, double mu_view,
   }
 }
 
+// The mean cosine between the sunward direction s and the facets of a hit's surface that the
+// sensor sees along d: the filtered normal's share (hit.coherence) as the footprint's mean
+// surface, max(0, n.s); the sub-pixel detail's as facets facing every way.
+double sunlit_facets(const ShellHit& hit, const earth::Vec3& d, const earth::Vec3& s) {
+  const double facing = std::max(0.0, glm::dot(hit.normal, s));
+  if (!(hit.coherence < 1)) return facing;
+  return hit.coherence * facing + (1 - hit.coherence) * facets_facing_every_way(-glm::dot(d, s));
+}
+
 // One cloud type's layer at a hit: distance, altitude, visible optical depth, and per band the
 // radiance leaving it that reaches the sensor through the clear air above, and the transmittance
 // of what lies behind (a plane-parallel slab of the same vertical optical depth).
@@ -913,7 +935,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double mu_view = std::clamp(-glm::dot(up, dir), 0.05, 1.0);  // the plane-parallel layer's
   const double mu_air = std::max(0.02, -glm::dot(up, dir));          // the air's path to the sensor
   const double mu_sun = glm::dot(c.sun_dir, up);                     // sine of the Sun's elevation here
-  const double mu_normal = glm::dot(hit.normal, c.sun_dir);
+  const double lit = sunlit_facets(hit, dir, c.sun_dir);
   // The air and the Sun's path through it are here; the cloud's own temperature and condensate
   // are the weather's where the wind brought it from.
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg), origin = c.weather_place(si, hit.position, at);
@@ -955,7 +977,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
     const optics::Band& band = *c.tables.bands[b];
     double rad = 0;
     if (band.sunlit() && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
-      rad += refl[b] / M_PI * (sun.direct[b] * ((1 - f_ind) * std::max(0.0, mu_normal) + f_ind * mu_sun) + sun.sky[b]);
+      rad += refl[b] / M_PI * (sun.direct[b] * ((1 - f_ind) * lit + f_ind * mu_sun) + sun.sky[b]);
     if (band.thermal) rad += emis[b] * c.tables.planck[b]->forward(t_cloud);
     const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_air) : 1.0;
     // Over the pixel: the cloud's share of it, and the rest seen unobstructed.

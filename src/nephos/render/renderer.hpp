@@ -85,8 +85,20 @@ struct ShellHit {
   double depth_m = 0;            ///< cloud depth along the line of sight after the surface
   /// The share of the pixel's cone that meets the cloud (filtered marches; 1 otherwise).
   double coverage = 1;
+  /// The share of the surface's mean squared gradient that `normal` holds: filtered,
+  /// |g|^2 / (|g|^2 + the sub-pixel detail's, CloudShell::detail_gradient_variance) of the
+  /// footprint's gradient g, 0 for a partial hit (cloud smaller than the footprint); 1 for a point
+  /// sample.
+  double coherence = 1;
   bool marched = false;  ///< the empty-space skip left possible cloud on the path (every hit was)
 };
+
+/// The mean of max(0, n.s) over the visible area of a surface whose normals n face every way
+/// (sub-pixel cloud detail), seen along v with the Sun towards s, cos_phase = -v.s: a Lambertian
+/// sphere's mean over its disc, (2/3)(sin a + (pi - a) cos a) / pi at phase angle a (Russell
+/// 1916, Astrophys. J. 43, 173: the Lambert sphere's phase law; 2/3, its mean cosine at full
+/// phase).
+double facets_facing_every_way(double cos_phase);
 
 /// Below this share of a pixel's cone in cloud, a filtered march's partial hit is kept at random
 /// in proportion (march_shell).
