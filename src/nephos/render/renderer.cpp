@@ -712,13 +712,14 @@ struct RenderContext {
     for (std::size_t k = 0; k < nn; ++k) {
       const auto [lat, lon] = earth.node_lat_lon_deg(k);
       const EarthView::Place node{{k, k, k, k}, {1, 0, 0, 0}};
+      const double land = earth.ground(node).share[1];
       for (std::size_t si = 0; si < ns; ++si) {
         const double share = cloud_share(si, earth::unit_from_latlon(lat, lon), false);
         const EarthView::LayerCondensate lc = earth.node_condensate_layer(k, si);
         const double path = lc.path_g_m2 / share;
         if (!(path > min_path_g_m2)) continue;
         const double wc = std::clamp(lc.mean_g_m3 / share, min_water_g_m3, max_water_g_m3);
-        const auto [phase, r_e] = particles(wc, lc.temperature_k, earth.ground(node).share[1]);
+        const auto [phase, r_e] = particles(wc, lc.temperature_k, land);
         // The path spread over 1 m: its extinction there is the optical depth.
         shadow_tau[k * ns + si] = static_cast<float>(optics::cloud_optics(phase, path, r_e, vis).extinction_per_m);
       }
