@@ -6,6 +6,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "nephos/core/error.hpp"
@@ -223,7 +224,8 @@ std::vector<CubeMap<float>> cloud_top_lifts(const weather::WeatherGrid& w, const
 }
 
 CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,
-                       std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps)
+                       std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps,
+                       std::shared_ptr<const CubeMap<float>> lift)
     : type_(type), p_(params), tex_(std::move(textures)), mask_(std::move(mask)), maps_(std::move(maps)) {
   if (maps_.size() != 4) throw ValueError("a cloud shell needs 4 displacement maps (mask + 3 fractals)");
   r_bottom_ = earth::radius_m + p_.shell_bottom_m;
@@ -245,12 +247,13 @@ CloudShell::CloudShell(CloudType type, const CloudTypeParams& params, std::share
     barrier_top_[static_cast<std::size_t>(i)] =
         static_cast<float>(p_.altitude_scale * std::exp((alt - p_.shell_top_m) / p_.altitude_length_top_m));
   }
-  build_skip_map();
   build_term_mips();
   const std::vector<double> f = fractal_sample();
   build_coverage(f);
   build_detail_tables();
   if (p_.calibrate) calibrate();
+  if (lift) apply_lift(std::move(lift));
+  build_skip_map();
 }
 
 std::vector<double> CloudShell::fractal_sample() const {
@@ -374,59 +377,99 @@ void CloudShell::build_coverage(const std::vector<double>& f) {
   }
 }
 
+namespace {
+
+// Texel (i, j) of face f of `out` (n x n) gets the largest of the (2 n + 5)^2 lattice values
+// over its own texel grown by one texel on every side: lattice points 2i .. 2i + 6 along each
+// axis (texel i spans 2i + 2 .. 2i + 4), separably, first along a, then over rows along b.
+// Loops over i innermost, so that they vectorise (max is exact: any order gives the same).
+void texel_maxima(const std::vector<float>& lattice, int n, int f, CubeMap<float>& out) {
+  constexpr float lowest = -std::numeric_limits<float>::infinity();
+  const int m = 2 * n + 5;
+  std::vector<float> row_max(static_cast<std::size_t>(m) * n);
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < m; ++b) {
+    const float* in = lattice.data() + static_cast<std::size_t>(b) * m;
+    float* o = row_max.data() + static_cast<std::size_t>(b) * n;
+    std::fill(o, o + n, lowest);
+    for (int a = 0; a <= 6; ++a)
+#pragma omp simd
+      for (int i = 0; i < n; ++i) o[i] = std::max(o[i], in[2 * i + a]);
+  }
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < n; ++j) {
+    float* o = &out.texel(f, 0, j);
+    std::fill(o, o + n, lowest);
+    for (int b = 2 * j; b <= 2 * j + 6; ++b) {
+      const float* in = row_max.data() + static_cast<std::size_t>(b) * n;
+#pragma omp simd
+      for (int i = 0; i < n; ++i) o[i] = std::max(o[i], in[i]);
+    }
+  }
+}
+
+// Added to each side of a point's altitude window [m]: the barrier tables' float rounding and
+// linear interpolation move their values by < 1e-5 relative, a few millimetres of altitude.
+constexpr double window_margin_m = 10;
+
+}  // namespace
+
+std::pair<double, double> CloudShell::point_window(double mask, double lift) const {
+  // classify_filtered()'s first stage (mask_stage) gives u_min where the mask is below min_mask
+  // or where bias + phi(m) - barrier + F_max < threshold + u_min sigma_max; the two barriers are
+  // positive, so either one above the rest, the budget b, suffices: A exp(-(z - bottom - lift_b)
+  // / L_b) > b below the window, A exp((z - top - lift) / L_t) > b above it.
+  constexpr double nowhere = std::numeric_limits<double>::infinity();
+  if (mask < p_.min_mask) return {nowhere, -nowhere};
+  const double budget = bias_ + mask_term(mask, squeeze_m(lift)) + fractal_max_ - p_.threshold - u_min_ * sigma_max_;
+  if (!(budget > 0)) return {nowhere, -nowhere};
+  if (!(p_.altitude_scale > 0)) return {-nowhere, nowhere};
+  const double reach = std::log(budget / p_.altitude_scale);
+  return {p_.shell_bottom_m + bottom_lift(lift) - p_.altitude_length_bottom_m * reach - window_margin_m,
+          p_.shell_top_m + lift + p_.altitude_length_top_m * reach + window_margin_m};
+}
+
 void CloudShell::build_skip_map() {
-  // n x n texels per face (~0.18 deg, ~20 km at n = 512); each holds the maximum of the
-  // displaced mask over its own texel grown by one texel on every side, taken over a lattice of
-  // half-texel spacing (7 x 7 points per texel, the lattice shared between texels), so a
-  // lookup anywhere in the texel bounds the mask within one texel width around it. The mask
-  // itself is bilinear on a ~20 km cube map of the 0.25 deg GFS grid: half-texel sampling
-  // resolves it. (n = 512 marches 13 % fewer rays of a GEO frame than n = 256; 6 MiB.)
+  // n x n texels per face (~0.18 deg, ~20 km at n = 512); each holds the widest window bounds
+  // (point_window() of the displaced mask and lift) over its own texel grown by one texel on
+  // every side, taken over a lattice of half-texel spacing (7 x 7 points per texel, the lattice
+  // shared between texels), so a lookup anywhere in the texel bounds them within one texel
+  // width around it. The mask itself is bilinear on a ~20 km cube map of the 0.25 deg GFS grid:
+  // half-texel sampling resolves it. (n = 512 marches 13 % fewer rays of a GEO frame than
+  // n = 256; 6 MiB per map.)
   constexpr int n = 512, m = 2 * n + 5;  // lattice points per face edge: u = (l - 2) / n - 1
-  mask_max_ = CubeMap<float>(n);
-  std::vector<float> lattice(static_cast<std::size_t>(m) * m), row_max(static_cast<std::size_t>(m) * n);
+  window_bottom_m_ = CubeMap<float>(n), window_top_m_ = CubeMap<float>(n);
+  const std::size_t lattice_size = static_cast<std::size_t>(m) * m;
+  std::vector<float> top(lattice_size), below(lattice_size);  // below: -bottom, so both take maxima
   for (int f = 0; f < 6; ++f) {
 #pragma omp parallel for schedule(static)
     for (int b = 0; b < m; ++b) {
       for (int a = 0; a < m; ++a) {
         const earth::Vec3 d = CubeMap<float>::face_point(f, (a - 2.0) / n - 1.0, (b - 2.0) / n - 1.0);
-        lattice[static_cast<std::size_t>(b) * m + a] = static_cast<float>(mask_at(d));
+        // mask_at()'s arithmetic, so that the map bounds exactly the values evaluate() sees.
+        const double r = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+        const earth::Vec3 u = maps_[0].upwind(d * (1 / r));
+        const auto [bottom_m, top_m] = point_window(mask_->sample(u), lift_ ? lift_->sample(u) : 0.0);
+        const std::size_t k = static_cast<std::size_t>(b) * m + a;
+        top[k] = static_cast<float>(top_m), below[k] = static_cast<float>(-bottom_m);
       }
     }
-    // The 7 x 7 maximum, separably: over 7 lattice points along a, then over 7 rows along b.
-    // Texel i spans lattice points 2i + 2 .. 2i + 4; grown by one texel: 2i .. 2i + 6.
-    // Loops over i innermost, so that they vectorise (max is exact: any order gives the same).
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < m; ++b) {
-      const float* in = lattice.data() + static_cast<std::size_t>(b) * m;
-      float* out = row_max.data() + static_cast<std::size_t>(b) * n;
-      std::fill(out, out + n, 0.0f);
-      for (int a = 0; a <= 6; ++a)
-#pragma omp simd
-        for (int i = 0; i < n; ++i) out[i] = std::max(out[i], in[2 * i + a]);
-    }
-#pragma omp parallel for schedule(static)
-    for (int j = 0; j < n; ++j) {
-      float* out = &mask_max_.texel(f, 0, j);
-      std::fill(out, out + n, 0.0f);
-      for (int b = 2 * j; b <= 2 * j + 6; ++b) {
-        const float* in = row_max.data() + static_cast<std::size_t>(b) * n;
-#pragma omp simd
-        for (int i = 0; i < n; ++i) out[i] = std::max(out[i], in[i]);
-      }
-    }
+    texel_maxima(top, n, f, window_top_m_);
+    texel_maxima(below, n, f, window_bottom_m_);
   }
+  for (float& v : window_bottom_m_.data()) v = -v;
   // The smallest texel on a gnomonic face spans 2/n of the tangent plane at the face corner,
   // an angle of about (2/n)/3 rad; one such texel of margin is what a lookup guarantees.
   skip_radius_rad_ = (2.0 / n) / 3.0;
 }
 
-void CloudShell::may_have_cloud(const double* x, const double* y, const double* z, std::size_t n,
-                                std::uint8_t* out) const {
-  // Located in a vectorised loop, read in a scalar one (CubeMap::locate_many).
+void CloudShell::altitude_window(const double* x, const double* y, const double* z, std::size_t n, double* lo,
+                                 double* hi) const {
   using Cube = CubeMap<float>;
-  const float* t = mask_max_.data().data();
-  const int size = mask_max_.size();
-  const double min_mask = p_.min_mask;
+  const float* bottom = window_bottom_m_.data().data();
+  const float* top = window_top_m_.data().data();
+  const int size = window_top_m_.size();
+  const auto row = static_cast<std::size_t>(size);
   constexpr std::size_t block = 256;
   alignas(64) std::uint32_t idx[block];
   alignas(64) float tx[block], ty[block];
@@ -434,8 +477,10 @@ void CloudShell::may_have_cloud(const double* x, const double* y, const double* 
     const std::size_t m = std::min(block, n - b0);
     Cube::locate_many(size, x + b0, y + b0, z + b0, m, idx, tx, ty);
     for (std::size_t i = 0; i < m; ++i) {
-      const Cube::Location l{idx[i], tx[i], ty[i]};
-      out[b0 + i] = static_cast<double>(Cube::blend_at(l, t, l.index, 1, static_cast<std::size_t>(size))) >= min_mask;
+      // The four texels around the point; the one it lies in bounds its neighbourhood.
+      const std::size_t k = idx[i];
+      lo[b0 + i] = std::min({bottom[k], bottom[k + 1], bottom[k + row], bottom[k + row + 1]});
+      hi[b0 + i] = std::max({top[k], top[k + 1], top[k + row], top[k + row + 1]});
     }
   }
 }
@@ -455,6 +500,11 @@ double CloudShell::barrier(double alt, double lift) const {
 }
 
 void CloudShell::set_lift(std::shared_ptr<const CubeMap<float>> lift) {
+  apply_lift(std::move(lift));
+  build_skip_map();  // the altitude window moves with the lift
+}
+
+void CloudShell::apply_lift(std::shared_ptr<const CubeMap<float>> lift) {
   if (lift && lift->size() != mask_->size())
     throw ValueError(
         fmt::format("a shell's lift map must be its mask's size ({}), not {}", mask_->size(), lift->size()));
@@ -997,6 +1047,25 @@ void CloudShell::evaluate_filtered(const earth::Vec3* p, const double* footprint
   }
 }
 
+void classify_filtered_in_windows(const CloudShell& s, const earth::Vec3* p, const double* footprint_m,
+                                  const double* r2_lo, const double* r2_hi, std::size_t n, double* out) {
+  thread_local std::vector<std::uint32_t> inside;
+  thread_local std::vector<earth::Vec3> in_p;
+  thread_local std::vector<double> in_fp, in_out;
+  inside.resize(n), in_p.resize(n), in_fp.resize(n), in_out.resize(n);
+  const double u_min = s.u_min();
+  std::size_t na = 0;
+  for (std::size_t j = 0; j < n; ++j) {  // compacted without branches: every point written, the kept advance
+    const earth::Vec3& q = p[j];
+    const double r2 = std::fma(q.z, q.z, std::fma(q.y, q.y, q.x * q.x));
+    inside[na] = static_cast<std::uint32_t>(j), in_p[na] = q, in_fp[na] = footprint_m[j];
+    na += (r2 >= r2_lo[j]) & (r2 <= r2_hi[j]);
+    out[j] = u_min;
+  }
+  s.classify_filtered(in_p.data(), in_fp.data(), na, in_out.data());
+  for (std::size_t a = 0; a < na; ++a) out[inside[a]] = in_out[a];
+}
+
 void CloudShell::value_and_gradient(const earth::Vec3* p, std::size_t n, double h, double* value, earth::Vec3* gradient,
                                     const double* footprint_m) const {
   // Per chunk, four positions per point (the point, then +h along x, y, z), as arrays:
@@ -1170,10 +1239,10 @@ CloudScene build_scene(const weather::WeatherGrid& weather, const weather::Weath
     t0 = clock::now();
     const std::size_t k = scene.shells.size();
     auto cube = std::make_shared<const CubeMap<float>>(std::move(cubes[k]));
-    scene.shells.emplace_back(t, p, scene.textures, std::move(cube), std::move(maps));
+    scene.shells.emplace_back(
+        t, p, scene.textures, std::move(cube), std::move(maps),
+        params.follow_weather_tops ? std::make_shared<const CubeMap<float>>(std::move(lifts[k])) : nullptr);
     scene.condensate_layer_m.push_back(masks.condensate_layer_m[static_cast<std::size_t>(t)]);
-    if (params.follow_weather_tops)
-      scene.shells.back().set_lift(std::make_shared<const CubeMap<float>>(std::move(lifts[k])));
     scene.wind_of_shell.push_back(w);
     shells_s += seconds_since(t0);
   }

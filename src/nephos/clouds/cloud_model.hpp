@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nephos/clouds/cube_map.hpp"
@@ -127,8 +128,10 @@ std::vector<CubeMap<float>> mask_cubes(const weather::WeatherMasks& masks, const
 /// One cloud type ready to evaluate: textures, displacement maps, mask, calibrated constants.
 class CloudShell {
  public:
+  /// @param lift  the per-location lift of set_lift(), or null: none.
   CloudShell(CloudType type, const CloudTypeParams& params, std::shared_ptr<const FractalTextures> textures,
-             std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps);
+             std::shared_ptr<const CubeMap<float>> mask, std::vector<DisplacementMap> maps,
+             std::shared_ptr<const CubeMap<float>> lift = nullptr);
 
   CloudType type() const { return type_; }
   const CloudTypeParams& params() const { return p_; }
@@ -219,19 +222,17 @@ class CloudShell {
   double lift_at(const earth::Vec3& p) const;
   /// The finest feature size [m]: the fine fractal's voxel.
   double feature_size_m() const;
-  /// Conservative test for empty-space skipping: false when no point within `radius_m` of
-  /// the great-circle direction `d` can hold cloud (the displaced mask stays below min_mask
-  /// there). Looks up a coarse cube map of the mask's neighbourhood maximum.
-  bool may_have_cloud(const earth::Vec3& d) const {
-    std::uint8_t out;
-    may_have_cloud(&d.x, &d.y, &d.z, 1, &out);
-    return out != 0;
-  }
-  /// may_have_cloud() of n directions (x[i], y[i], z[i]) into out[i] (1: possible, 0: clear),
-  /// bit-identical to single calls (they are this with n = 1).
-  void may_have_cloud(const double* x, const double* y, const double* z, std::size_t n, std::uint8_t* out) const;
-  /// Angular half-width [rad] of the neighbourhood may_have_cloud() covers.
+  /// Angular half-width [rad] of the neighbourhood altitude_window() covers.
   double skip_radius_rad() const { return skip_radius_rad_; }
+  /// Conservative bounds for empty-space skipping: the altitudes [lo[i], hi[i]] [m] outside
+  /// which no point within skip_radius_rad() of direction (x[i], y[i], z[i]) (any length > 0)
+  /// can hold cloud: there classify_filtered() is u_min() whatever the footprint (and CF below
+  /// the threshold), the mask below min_mask or the altitude barriers alone keeping CF below the
+  /// sub-pixel detail's reach, for the masks and lifts of that neighbourhood. lo[i] > hi[i]: no
+  /// cloud anywhere near. Looks up two coarse cube maps of the bounds. A march skips the rays
+  /// whose window is empty and leaves out the filtered steps outside it: the same result from
+  /// fewer points.
+  void altitude_window(const double* x, const double* y, const double* z, std::size_t n, double* lo, double* hi) const;
   /// Replaces the displacement maps (animation).
   void set_maps(std::vector<DisplacementMap> maps) {
     maps_ = std::move(maps);
@@ -308,7 +309,14 @@ class CloudShell {
     const auto i = static_cast<std::size_t>(x);
     return t[i] + (x - static_cast<double>(i)) * (t[i + 1] - t[i]);
   }
+  /// The skip maps of altitude_window(): per texel, the widest bounds of the points' windows
+  /// around it. After calibration: a window reads the calibrated mask term.
   void build_skip_map();
+  /// set_lift() but for the skip maps it moves.
+  void apply_lift(std::shared_ptr<const CubeMap<float>> lift);
+  /// The altitude window [bottom, top] [m] of one point where the displaced mask is `mask` and
+  /// the lift `lift` [m] (altitude_window()).
+  std::pair<double, double> point_window(double mask, double lift) const;
   /// The altitude barriers at altitude alt [m] with the top one raised by lift [m]: A (exp(-(alt -
   /// bottom) / L_bottom) + exp((alt - lift - top) / L_top)), from tables where alt is on them.
   double barrier(double alt, double lift = 0) const;
@@ -366,7 +374,7 @@ class CloudShell {
   double r_bottom_, r_top_;
   double bias_, mask_weight_, fractal_max_, fractal_min_;  ///< extreme sums of the fractal terms
   std::array<int, 3> order_{0, 2, 1};                      ///< evaluation order of the fractal terms
-  CubeMap<float> mask_max_;
+  CubeMap<float> window_bottom_m_, window_top_m_;          ///< altitude_window()'s bounds per skip texel
   double skip_radius_rad_ = 0;
   // Altitude barriers tabulated at 1 m over the shell +- 1 km (linear interpolation; the
   // exponentials' relative change over 1 m is < 1/150, error < 1e-5).
@@ -427,6 +435,20 @@ inline std::size_t steps_with_cover(const CloudShell& s, const double* u, std::s
   }
   return count;
 }
+
+/// An altitude window [z_lo, z_hi] [m] (CloudShell::altitude_window) as squared radii [m^2], for
+/// tests of points without a square root; an empty window stays empty.
+inline std::pair<double, double> window_squared_radii(double z_lo, double z_hi) {
+  const double lo = std::max(earth::radius_m + z_lo, 0.0), hi = earth::radius_m + z_hi;
+  return {lo * lo, hi >= 0 ? hi * hi : -1.0};
+}
+
+/// classify_filtered() of those of the n points p[i] (footprints footprint_m[i] [m]) that lie in
+/// their altitude windows, r2_lo[i] <= |p[i]|^2 <= r2_hi[i] (window_squared_radii()); out[i] =
+/// s.u_min() for the others, which is what classify_filtered() gives there: the same values
+/// from fewer points (a march's steps above and below what its ray's columns can hold).
+void classify_filtered_in_windows(const CloudShell& s, const earth::Vec3* p, const double* footprint_m,
+                                  const double* r2_lo, const double* r2_hi, std::size_t n, double* out);
 
 /// The tables of a configuration file the cloud model and the masks read: [clouds.*],
 /// [textures], [displacement] and [masks.*] / [cloud_fraction].

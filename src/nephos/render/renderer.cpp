@@ -166,27 +166,28 @@ struct MarchScratch {
   std::vector<int> k_max;
   std::vector<earth::Vec3> pts, grads;
   std::vector<double> vals;
+  // Each ray's altitude window as squared radii [m^2] (clouds::window_squared_radii).
+  std::vector<double> r2_lo, r2_hi;
   void resize_rays(std::size_t n) {
     for (auto* v : {&a0, &la, &b0, &b1, &len}) v->resize(n);
     in_shell.resize(n);
   }
-  // The ends of every ray's path (first n: start, next n: end) and their skip lookups.
+  // The ends of every ray's path (first n: start, next n: end), its count of skip lookups (one
+  // per skip radius of arc, bounded) and its altitude window [m] (lo > hi: empty).
   std::vector<double> ex, ey, ez;
-  std::vector<std::uint8_t> possible;
-  std::vector<int> segments;  // lookups per path: one per skip radius of arc (bounded)
-  // The interior lookup points of long paths, and the ray each belongs to.
-  std::vector<double> ix, iy, iz;
+  std::vector<int> segments;
+  std::vector<double> z_lo, z_hi;
+  // The other skip lookups of the long paths, the ray each belongs to, and their windows.
+  std::vector<double> ix, iy, iz, window_lo, window_hi;
   std::vector<std::uint32_t> owner;
-  std::vector<std::uint8_t> interior;
   void resize_ends(std::size_t n) {
     for (auto* v : {&ex, &ey, &ez}) v->resize(2 * n);
-    possible.resize(n);
     segments.resize(n);
   }
   void resize_marched(std::size_t n) {
     idx.resize(n);
     for (auto* v : {&ma0, &mla, &mb0, &ds, &dx, &dy, &dz, &v_prev, &lo, &hi, &depth_after, &footprint, &u_max,
-                    &soft_length, &coverage, &shown})
+                    &soft_length, &coverage, &shown, &r2_lo, &r2_hi})
       v->resize(n);
     k_hit.resize(n), k_max.resize(n);
     pts.resize(n);
@@ -262,19 +263,24 @@ void shell_paths(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   }
 }
 
-// Stage 2, empty-space skipping: the mask's neighbourhood maximum looked up along each path,
-// batched (the start of every ray, then the far end and the interior points of the long paths
-// still undecided; most paths, in steep views, are shorter than one skip radius and one lookup
-// covers them). A ray whose whole path sees no possible cloud costs nothing more. The rays to
-// march go into w.idx and their paths into the compacted arrays; returns their count.
+// Stage 2, empty-space skipping: each path's altitude window (CloudShell::altitude_window)
+// looked up along it, batched: at its start and, for paths longer than one skip radius (most
+// paths, in steep views, are not), at its far end and the interior points one skip radius
+// apart; the path's window is the widest of them. A ray whose window is empty costs nothing
+// more; the others keep theirs as squared radii, outside which a filtered step is not
+// evaluated (march_steps_filtered). The rays to march go into w.idx and their paths into the
+// compacted arrays; returns their count.
 std::size_t rays_to_march(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, std::size_t n,
                           int steps, MarchScratch& w) {
-  shell.may_have_cloud(w.ex.data(), w.ey.data(), w.ez.data(), n, w.possible.data());
+  // Every path's start at once (a ray outside the shell looks up its dummy end, unused), then
+  // the other lookups of the long paths.
+  w.z_lo.resize(n), w.z_hi.resize(n);
+  shell.altitude_window(w.ex.data(), w.ey.data(), w.ez.data(), n, w.z_lo.data(), w.z_hi.data());
   w.owner.clear();
   w.ix.clear(), w.iy.clear(), w.iz.clear();
   for (std::size_t i = 0; i < n; ++i) {
     const int m = w.segments[i];
-    if (!w.in_shell[i] || w.possible[i] || m == 1) continue;
+    if (!w.in_shell[i] || m == 1) continue;
     w.owner.push_back(static_cast<std::uint32_t>(i));  // the far end
     w.ix.push_back(w.ex[n + i]), w.iy.push_back(w.ey[n + i]), w.iz.push_back(w.ez[n + i]);
     const Path path{w.a0[i], w.a0[i] + w.la[i], w.b0[i], w.b1[i]};
@@ -285,19 +291,24 @@ std::size_t rays_to_march(const clouds::CloudShell& shell, const earth::Vec3& o,
       w.iz.push_back(std::fma(t, d[i].z, o.z));
     }
   }
-  w.interior.resize(w.owner.size());
-  shell.may_have_cloud(w.ix.data(), w.iy.data(), w.iz.data(), w.owner.size(), w.interior.data());
-  for (std::size_t k = 0; k < w.owner.size(); ++k) w.possible[w.owner[k]] |= w.interior[k];
+  const std::size_t nl = w.owner.size();
+  w.window_lo.resize(nl), w.window_hi.resize(nl);
+  shell.altitude_window(w.ix.data(), w.iy.data(), w.iz.data(), nl, w.window_lo.data(), w.window_hi.data());
+  for (std::size_t k = 0; k < nl; ++k) {
+    const std::uint32_t i = w.owner[k];
+    w.z_lo[i] = std::min(w.z_lo[i], w.window_lo[k]), w.z_hi[i] = std::max(w.z_hi[i], w.window_hi[k]);
+  }
   std::size_t nr = 0;
   w.idx.resize(n);
   for (std::size_t i = 0; i < n; ++i)
-    if (w.in_shell[i] && w.possible[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
+    if (w.in_shell[i] && w.z_lo[i] <= w.z_hi[i]) w.idx[nr++] = static_cast<std::uint32_t>(i);
   if (nr == 0) return 0;
   w.resize_marched(nr);
   for (std::size_t j = 0; j < nr; ++j) {
     const std::uint32_t i = w.idx[j];
     w.ma0[j] = w.a0[i], w.mla[j] = w.la[i], w.mb0[j] = w.b0[i];
     w.ds[j] = w.len[i] / steps;
+    std::tie(w.r2_lo[j], w.r2_hi[j]) = clouds::window_squared_radii(w.z_lo[i], w.z_hi[i]);
     w.dx[j] = d[i].x, w.dy[j] = d[i].y, w.dz[j] = d[i].z;
     w.k_hit[j] = -1, w.v_prev[j] = 0, w.lo[j] = 0, w.hi[j] = 0, w.depth_after[j] = 0;
     w.u_max[j] = -std::numeric_limits<double>::infinity(), w.soft_length[j] = 0, w.k_max[j] = 0;
@@ -378,7 +389,8 @@ void march_steps_filtered(const clouds::CloudShell& shell, const earth::Vec3& o,
       pts[3 * j + 2] = std::fma(t, rdz[j], oz);
       fp[j] = spread * t;
     }
-    shell.classify_filtered(w.pts.data(), w.footprint.data(), nr, w.vals.data());
+    clouds::classify_filtered_in_windows(shell, w.pts.data(), w.footprint.data(), w.r2_lo.data(), w.r2_hi.data(), nr,
+                                         w.vals.data());
 #pragma omp simd
     for (std::size_t j = 0; j < nr; ++j) {
       const double u = vals[j];

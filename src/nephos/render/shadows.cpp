@@ -8,12 +8,11 @@ namespace nephos::render {
 
 void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o, const earth::Vec3& d, std::size_t n,
                           int steps, double* out, const double* footprint_m, double* chance) {
-  thread_local std::vector<double> t0, t1, px, py, pz, vals, fp;
+  thread_local std::vector<double> t0, t1, px, py, pz, vals, fp, lo, hi, r2_lo, r2_hi;
   thread_local std::vector<clouds::PathCoverage> paths;
-  thread_local std::vector<std::uint8_t> possible, found;
-  thread_local std::vector<std::uint32_t> live, owner, first, cloudy;
+  thread_local std::vector<std::uint32_t> live, first, cloudy;
   thread_local std::vector<earth::Vec3> pts;
-  t0.resize(n), t1.resize(n), possible.resize(n);
+  t0.resize(n), t1.resize(n);
   const double r_top = shell.radius_top_m(), r_bottom = shell.radius_bottom_m();
   // Each ray's path inside the shell: from where it leaves the inner sphere (or its origin) to
   // where it leaves the outer one. Rays from above the shell see none of it.
@@ -26,11 +25,10 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     t0[i] = c < 0 ? -b + std::sqrt(std::max(0.0, b * b - c)) : 0.0;
     if (t0[i] >= t1[i]) t0[i] = t1[i] = 0;
   }
-  // Empty-space skip: the mask's neighbourhood maximum at the path's two ends and between them,
-  // one lookup per skip radius of arc (the points as they are: a cube map's lookup needs no
-  // unit vector). First each path's count m of segments and where its m + 1 points go, then
-  // the points.
-  std::fill(possible.begin(), possible.end(), 0);
+  // Empty-space skip: the altitude window (CloudShell::altitude_window) at the path's two ends
+  // and between them, one lookup per skip radius of arc (the points as they are: a cube map's
+  // lookup needs no unit vector); the path's window is the widest of them. First each path's
+  // count m of segments and where its m + 1 points go, then the points.
   live.clear(), first.resize(n + 1);
   std::size_t np = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -41,7 +39,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     np += 2 + static_cast<std::size_t>(std::min(arc / shell.skip_radius_rad(), 64.0));
   }
   first[n] = static_cast<std::uint32_t>(np);
-  px.resize(np), py.resize(np), pz.resize(np), owner.resize(np), found.resize(np);
+  px.resize(np), py.resize(np), pz.resize(np), lo.resize(np), hi.resize(np);
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t k0 = first[i], count = first[i + 1] - k0;  // m + 1 points, or none
     if (count == 0) continue;
@@ -49,17 +47,23 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     for (std::uint32_t k = 0; k < count; ++k) {
       const double t = t0[i] + step * k;
       px[k0 + k] = o[i].x + t * d.x, py[k0 + k] = o[i].y + t * d.y, pz[k0 + k] = o[i].z + t * d.z;
-      owner[k0 + k] = static_cast<std::uint32_t>(i);
     }
   }
-  shell.may_have_cloud(px.data(), py.data(), pz.data(), np, found.data());
-  for (std::size_t k = 0; k < np; ++k) possible[owner[k]] |= found[k];
+  shell.altitude_window(px.data(), py.data(), pz.data(), np, lo.data(), hi.data());
+  r2_lo.clear(), r2_hi.clear();
   for (std::size_t i = 0; i < n; ++i) {
     out[i] = 0;
     if (chance) chance[i] = 0;
-    if (possible[i]) live.push_back(static_cast<std::uint32_t>(i));
+    if (first[i + 1] == first[i]) continue;
+    const double z_lo = *std::min_element(&lo[first[i]], &lo[first[i + 1]]);
+    const double z_hi = *std::max_element(&hi[first[i]], &hi[first[i + 1]]);
+    if (!(z_lo <= z_hi)) continue;
+    live.push_back(static_cast<std::uint32_t>(i));
+    const auto [lo2, hi2] = clouds::window_squared_radii(z_lo, z_hi);
+    r2_lo.push_back(lo2), r2_hi.push_back(hi2);
   }
-  // The march: every live ray's step midpoints, classified together, step by step.
+  // The march: every live ray's step midpoints, classified together, step by step. Filtered,
+  // only those in their ray's window: outside it they are u_min.
   const std::size_t nl = live.size();
   pts.resize(nl), vals.resize(nl);
   if (footprint_m) {
@@ -78,7 +82,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
       pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * mid) * d;
     }
     if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
-      shell.classify_filtered(pts.data(), fp.data(), nl, vals.data());
+      clouds::classify_filtered_in_windows(shell, pts.data(), fp.data(), r2_lo.data(), r2_hi.data(), nl, vals.data());
       const std::size_t nc = clouds::steps_with_cover(shell, vals.data(), nl, cloudy.data());
       for (std::size_t c = 0; c < nc; ++c) {
         const std::uint32_t j = cloudy[c];
