@@ -435,8 +435,7 @@ void CloudShell::build_skip_map() {
   // every side, taken over a lattice of half-texel spacing (7 x 7 points per texel, the lattice
   // shared between texels), so a lookup anywhere in the texel bounds them within one texel
   // width around it. The mask itself is bilinear on a ~20 km cube map of the 0.25 deg GFS grid:
-  // half-texel sampling resolves it. (n = 512 marches 13 % fewer rays of a GEO frame than
-  // n = 256; 6 MiB per map.)
+  // half-texel sampling resolves it. 6 MiB per map.
   constexpr int n = 512, m = 2 * n + 5;  // lattice points per face edge: u = (l - 2) / n - 1
   window_bottom_m_ = CubeMap<float>(n), window_top_m_ = CubeMap<float>(n);
   const std::size_t lattice_size = static_cast<std::size_t>(m) * m;
