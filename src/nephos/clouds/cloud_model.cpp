@@ -532,8 +532,7 @@ double CloudShell::lift_at(const earth::Vec3& p) const {
 }
 
 double CloudShell::mask_at(const earth::Vec3& p) const {
-  // The arithmetic of evaluate()'s first stage, so that the skip map bounds exactly the
-  // values evaluate() sees.
+  // The arithmetic of evaluate()'s first stage (and of the skip maps' lattice, build_skip_map()).
   const double r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
   return mask_->sample(maps_[0].upwind(p * (1 / r)));
 }
