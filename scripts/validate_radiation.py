@@ -9,7 +9,10 @@ the weather's 2.5 deg cells:
   outgoing long-wave flux  F = sigma T_f^4, T_f = T_b (a + b T_b), T_b the 11.2 um brightness
                            temperature, a = 1.228, b = -1.106e-3 K^-1 (Ohring, Gruber & Ellingson
                            1984, J. Clim. Appl. Meteor. 23, 416: NOAA's operational OLR from the
-                           AVHRR window channel); the mean over the instants
+                           AVHRR window channel), T_b first corrected to nadir where the view
+                           sees the clear column (Elmer, Berndt & Jedlovec 2016, J. Atmos. Oceanic
+                           Technol. 33, 1073, eq. 6, their ABI band-14 coefficients; limb_correction_k);
+                           the mean over the instants
   albedo                   the bands' reflectance factors pi L / (E mu0), weighted by the share of
                            the solar spectrum each stands for (0.30, 0.22, 0.26, 0.06, 0.09, 0.07
                            for bands 1-6: ASTM G173 over 0.3-0.55, 0.55-0.75, 0.75-1.2, 1.2-1.45,
@@ -23,7 +26,8 @@ throughout them, seen from a geostationary sensor under the Sun at the window's 
 sees little daylight at 00 and 12 UTC). GFS's fluxes come from its radiation code (RRTMG) and
 its own clouds: a reference that owes nothing to nephos. It also reports the same with the clouds
 left where they are at the valid time (clouds_fixed_at_valid_time), the long-wave bias by the
-cells' view zenith (olr_by_view_zenith), the long wave with each cell seen from above
+cells' view zenith (olr_by_view_zenith), the long wave without the limb correction
+(olr_as_seen, olr_as_seen_by_view_zenith), with each cell seen from above
 (olr_nadir_views: nadir_window_olr), and (gfs_cover_fits) how well
 GFS's own 6-hour and valid-time layer cloud covers explain the same fluxes in a least-squares fit
 (docs/VALIDATION.md).
@@ -55,6 +59,9 @@ WINDOW_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the middles of t
 # Nadir views for the long wave (nadir_window_olr): sub-points 25 deg apart, seen from the
 # geostationary distance through a field of view that reaches 20 deg of arc around each
 NADIR_STEP_DEG, NADIR_ALTITUDE_KM, NADIR_FOV_DEG = 25.0, 35786.0, 8.0
+# Elmer et al. (2016) eq. 6 for ABI band 14: powers of day/100 and latitude/100, C1 and C2 [K]
+LIMB_TABLE = Path(__file__).resolve().parent.parent / "data" / "validation" / "elmer2016_abi14_limb_correction.csv"
+LIMB_MAX_LATITUDE_DEG = 72.5  # the table's fit ends there (Elmer's own clip)
 
 
 def unit(lat, lon):
@@ -201,10 +208,34 @@ def side_by_side(path, a, b, lo, hi, rows, cols, scale=4):
     write_png(path, np.repeat(np.repeat(img, scale, axis=0), scale, axis=1))
 
 
-def ohring_olr(img):
+def limb_correction_k(lat, vza_deg, day_of_year):
+    """What a clear column's 11.2 um brightness temperature gains from view zenith vza_deg to nadir
+    [K]: Elmer, Berndt & Jedlovec (2016) eq. 6, C1 x + C2 x^2 with x = |ln cos vza|, C1 and C2
+    their polynomials in day of year and latitude for ABI band 14 (LIMB_TABLE)."""
+    table = np.loadtxt(LIMB_TABLE, delimiter=",", comments="#", skiprows=6)
+    d = day_of_year / 100.0
+    lt = np.clip(np.nan_to_num(lat), -LIMB_MAX_LATITUDE_DEG, LIMB_MAX_LATITUDE_DEG) / 100.0
+    c1, c2 = np.zeros_like(lt), np.zeros_like(lt)
+    for i, j, k1, k2 in table:
+        term = d**i * lt**j
+        c1, c2 = c1 + k1 * term, c2 + k2 * term
+    x = np.abs(np.log(np.cos(np.radians(np.clip(np.nan_to_num(vza_deg), 0.0, 89.0)))))
+    return c1 * x + c2 * x * x
+
+
+def ohring_olr(img, limb=None):
     """The outgoing long-wave flux [W m-2] of each pixel from its 11.2 um brightness temperature
-    (Ohring, Gruber & Ellingson 1984)."""
+    (Ohring, Gruber & Ellingson 1984). limb: (view zenith [deg], day of year) to correct the
+    temperature to nadir first (limb_correction_k), weighted by the share of the pixel's radiance
+    that comes up through the whole clear column: 1 - f (1 - exp(-tau / 2)), f its cloud fraction
+    and tau / 2 its clouds' absorption optical depth at 11 um (half their visible extinction:
+    particles much larger than the wavelength, extinction efficiency 2, absorption 1). Band 14's
+    limb darkening is the water vapour's, and most of the vapour lies below the clouds' tops."""
     tb = img["brightness_temperature_lwir11"]
+    if limb is not None:
+        vza, day = limb
+        clear = 1 - img["cloud_fraction"] * -np.expm1(-0.5 * img["cloud_optical_depth"])
+        tb = tb + clear * limb_correction_k(img["latitude"], vza, day)
     return STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
 
 
@@ -276,9 +307,10 @@ def window_means(scene, w, valid, size, sw_lon, carried):
     (sw_lon), the reflected flux summed over the instants over the insolation summed over them.
     carried: the clouds at each instant carried back from the valid time by GFS's wind
     (Scene.advance, which leaves the scene there); else as they are at the valid time. Cells with
-    fewer than 20 pixels are NaN."""
+    fewer than 20 pixels are NaN. Returns the long wave corrected to nadir, the albedo and the long
+    wave as seen (no limb correction)."""
     lats, lons = w.latitudes, w.longitudes
-    olr_sum, reflected, incident = 0.0, 0.0, 0.0
+    olr_sum, seen_sum, reflected, incident = 0.0, 0.0, 0.0, 0.0
     n_olr = n_alb = np.inf
     at_h = 0.0  # the scene's advance from the valid time [h]
     for hours in WINDOW_INSTANTS_H:
@@ -289,9 +321,13 @@ def window_means(scene, w, valid, size, sw_lon, carried):
         stamp = when.strftime("%Y-%m-%dT%H:%M:%SZ")
         if carried or hours == WINDOW_INSTANTS_H[0]:  # the long wave does not see the Sun move
             img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
-            olr = np.where(view_zenith_deg(img["latitude"], img["longitude"], GEO_LON) < MAX_VZA, ohring_olr(img), np.nan)
-            g, n = grid_mean(olr, img["latitude"], img["longitude"], lats, lons)
-        olr_sum, n_olr = olr_sum + g, np.minimum(n_olr, n)
+            vza = view_zenith_deg(img["latitude"], img["longitude"], GEO_LON)
+            limb = (vza, when.timetuple().tm_yday)
+            g, n = grid_mean(np.where(vza < MAX_VZA, ohring_olr(img, limb), np.nan), img["latitude"],
+                             img["longitude"], lats, lons)
+            g_seen, _ = grid_mean(np.where(vza < MAX_VZA, ohring_olr(img), np.nan), img["latitude"],
+                                  img["longitude"], lats, lons)
+        olr_sum, seen_sum, n_olr = olr_sum + g, seen_sum + g_seen, np.minimum(n_olr, n)
         sw = scene.render(sensor=f"geo:{sw_lon}", size=size, bands=SOLAR_BANDS, time=stamp)
         lat, lon = sw["latitude"], sw["longitude"]
         mu0, sun = cos_sun_zenith(lat, lon, when)
@@ -303,10 +339,10 @@ def window_means(scene, w, valid, size, sw_lon, carried):
         reflected, incident, n_alb = reflected + f, incident + e, np.minimum(n_alb, n_f)
     with np.errstate(invalid="ignore", divide="ignore"):
         alb = reflected / incident
-    olr = olr_sum / len(WINDOW_INSTANTS_H)
-    olr[n_olr < 20] = np.nan
+    olr, olr_seen = olr_sum / len(WINDOW_INSTANTS_H), seen_sum / len(WINDOW_INSTANTS_H)
+    olr[n_olr < 20] = olr_seen[n_olr < 20] = np.nan
     alb[n_alb < 20] = np.nan
-    return olr, alb
+    return olr, alb, olr_seen
 
 
 def main():
@@ -326,8 +362,8 @@ def main():
     sw_lon = round(mid_sun["subsolar_longitude_deg"], 1)
     lats, lons = w.latitudes, w.longitudes
     # The clouds as they are at the valid time, then carried back through the window by the wind.
-    fixed_olr, fixed_alb = window_means(scene, w, valid, size, sw_lon, carried=False)
-    olr_grid, alb_grid = window_means(scene, w, valid, size, sw_lon, carried=True)
+    fixed_olr, fixed_alb, _ = window_means(scene, w, valid, size, sw_lon, carried=False)
+    olr_grid, alb_grid, seen_grid = window_means(scene, w, valid, size, sw_lon, carried=True)
     # The same clouds seen from above each cell (the carried run left the scene at the last instant).
     nadir_olr, farthest = nadir_window_olr(scene, w, valid, max(120, args.size // 3), -WINDOW_INSTANTS_H[-1])
     la, lo = np.meshgrid(lats, lons, indexing="ij")
@@ -348,6 +384,8 @@ def main():
         "olr": weighted_stats(olr_grid, gfs_olr, area),
         "albedo": weighted_stats(alb_grid, gfs_albedo, area),
         "olr_by_view_zenith": by_view_zenith(olr_grid, gfs_olr, la, lo, area),
+        "olr_as_seen": weighted_stats(seen_grid, gfs_olr, area),
+        "olr_as_seen_by_view_zenith": by_view_zenith(seen_grid, gfs_olr, la, lo, area),
         "olr_nadir_views": dict(weighted_stats(np.where(np.isfinite(olr_grid), nadir_olr, np.nan), gfs_olr, area),
                                 farthest_from_view_centre_deg=farthest),
         "clouds_fixed_at_valid_time": {"olr": weighted_stats(fixed_olr, gfs_olr, area),
