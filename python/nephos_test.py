@@ -232,7 +232,7 @@ class RadiationAgainstGfs(unittest.TestCase):
     # scripts/validate_radiation.py at the CI's small configuration (300 x 300, 64^3 textures):
     # nephos's outgoing long-wave flux and albedo over GFS's 6-hour window, the clouds carried back
     # by the wind, against GFS's own (ulwrf, uswrf at nominalTop) on the embedded date. It
-    # measures r 0.883 and bias -4.5 W m-2 (long wave, corrected to nadir as Elmer et al. 2016;
+    # measures r 0.883 and bias -4.4 W m-2 (long wave, corrected to nadir as Elmer et al. 2016;
     # -7.2 as seen), r 0.773 and bias +0.018 (albedo); the
     # full configuration (800 x 800, 256^3) is in docs/VALIDATION.md. The bounds sit 0.05 below
     # the correlations (the spread between texture sizes and image sizes is of that order) and at
@@ -267,8 +267,8 @@ class RadiationAgainstGfs(unittest.TestCase):
         # W m-2 within 35 deg of nadir, -14.6 at 60-70 deg). The slant view sees more cloud side
         # and a longer path through the air: the window-channel conversion expects nadir
         # radiances. The bounds are half the measured differences; a fault that took the farthest
-        # view for each cell reverses them. The limb correction (clear columns' gases only) takes
-        # back 2.7 W m-2 of the 5.1 (measured); the bound is half that.
+        # view for each cell reverses them. The limb correction (the air's path, not the clouds'
+        # sides) takes back 2.8 W m-2 of the 5.1 (measured); the bound is half that.
         nadir, by_vz = s["olr_nadir_views"], s["olr_as_seen_by_view_zenith"]
         self.assertGreater(nadir["nephos_mean"], s["olr_as_seen"]["nephos_mean"] + 2.5)
         self.assertGreater(s["olr"]["nephos_mean"], s["olr_as_seen"]["nephos_mean"] + 1.3)
@@ -279,6 +279,25 @@ class RadiationAgainstGfs(unittest.TestCase):
         for flux in ("olr", "albedo"):
             self.assertGreater(fits["six_hour_covers"][flux], fits["valid_time_covers"][flux] + 0.05)
             self.assertGreater(s[flux]["correlation"], fits["valid_time_covers"][flux] - 0.05)
+
+    def test_limb_correction_tables_read_as_published(self):
+        # The script's reading of Elmer et al.'s (2016) band-14 tables: the clear column's gain to
+        # nadir at 60 deg (4.5-5.2 K at the equator, 1.0-1.5 K at 45 deg over the year, the
+        # tables evaluated as their code does) and the cloud scaling Q, the share of it left
+        # above a cloud's top: rising with the top's pressure, under 0.15 above 500 hPa, 0.3-0.6
+        # at 850 hPa (nephos's own columns give 0.43-0.45, atmosphere_test), 1 at the ground.
+        # Faults caught: the cloud table's day and latitude scaled by 100 instead of 10^4 (Q = 1
+        # at every pressure), the linear and quadratic coefficients swapped (3.4 K at the equator).
+        sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+        import validate_radiation as v
+        for day in (15, 105, 196, 284):
+            gain = v.limb_correction_k(np.array([0.0, 45.0]), np.array([60.0, 60.0]), day)
+            self.assertTrue(4.5 <= gain[0] <= 5.2 and 1.0 <= gain[1] <= 1.5, (day, gain))
+            for lat in (0.0, 30.0, 45.0):
+                p = np.array([300.0, 500.0, 700.0, 850.0, 950.0, 1005.0])
+                q = v.cloud_scaling(np.full(p.shape, lat), p, day)
+                self.assertTrue(np.all(np.diff(q) >= 0) and q[1] < 0.15 and 0.3 < q[3] < 0.6 and q[-1] > 0.999,
+                                (day, lat, q))
 
     def test_valid_time_covers_are_gfs_own_diagnosis(self):
         # The low, middle and high covers diagnosed at the valid time as GFS's radiation does

@@ -9,10 +9,9 @@ the weather's 2.5 deg cells:
   outgoing long-wave flux  F = sigma T_f^4, T_f = T_b (a + b T_b), T_b the 11.2 um brightness
                            temperature, a = 1.228, b = -1.106e-3 K^-1 (Ohring, Gruber & Ellingson
                            1984, J. Clim. Appl. Meteor. 23, 416: NOAA's operational OLR from the
-                           AVHRR window channel), T_b first corrected to nadir where the view
-                           sees the clear column (Elmer, Berndt & Jedlovec 2016, J. Atmos. Oceanic
-                           Technol. 33, 1073, eq. 6, their ABI band-14 coefficients; limb_correction_k);
-                           the mean over the instants
+                           AVHRR window channel), T_b first corrected to nadir (Elmer, Berndt &
+                           Jedlovec 2016, J. Atmos. Oceanic Technol. 33, 1073, eq. 6 and its cloud
+                           scaling, their ABI band-14 coefficients); the mean over the instants
   albedo                   the bands' reflectance factors pi L / (E mu0), weighted by the share of
                            the solar spectrum each stands for (0.30, 0.22, 0.26, 0.06, 0.09, 0.07
                            for bands 1-6: ASTM G173 over 0.3-0.55, 0.55-0.75, 0.75-1.2, 1.2-1.45,
@@ -59,9 +58,12 @@ WINDOW_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the middles of t
 # Nadir views for the long wave (nadir_window_olr): sub-points 25 deg apart, seen from the
 # geostationary distance through a field of view that reaches 20 deg of arc around each
 NADIR_STEP_DEG, NADIR_ALTITUDE_KM, NADIR_FOV_DEG = 25.0, 35786.0, 8.0
-# Elmer et al. (2016) eq. 6 for ABI band 14: powers of day/100 and latitude/100, C1 and C2 [K]
-LIMB_TABLE = Path(__file__).resolve().parent.parent / "data" / "validation" / "elmer2016_abi14_limb_correction.csv"
-LIMB_MAX_LATITUDE_DEG = 72.5  # the table's fit ends there (Elmer's own clip)
+# Elmer et al. (2016) eq. 6 for ABI band 14: powers of day/100 and latitude/100, C1 and C2 [K];
+# and its scaling for a cloud's top pressure (rows of 100 coefficients on 59 levels)
+TABLES = Path(__file__).resolve().parent.parent / "data" / "validation"
+LIMB_TABLE = TABLES / "elmer2016_abi14_limb_correction.csv"
+CLOUD_SCALING_TABLE = TABLES / "elmer2016_abi14_cloud_scaling.csv"
+LIMB_MAX_LATITUDE_DEG = 72.5  # the tables' fits end there (Elmer's own clip)
 
 
 def unit(lat, lon):
@@ -223,19 +225,53 @@ def limb_correction_k(lat, vza_deg, day_of_year):
     return c1 * x + c2 * x * x
 
 
+def cloud_scaling(lat, cloud_top_hpa, day_of_year):
+    """Elmer et al.'s (2016) share Q of the clear column's limb correction that applies to a cloud
+    whose top lies at cloud_top_hpa: their ABI band-14 polynomials in day of year and latitude
+    (both / 10^4, the result / 100, at most 1) on 59 pressure levels, each holding between the
+    midpoints to its neighbours (CLOUD_SCALING_TABLE)."""
+    table = np.loadtxt(CLOUD_SCALING_TABLE, delimiter=",", comments="#", skiprows=8)
+    levels, coef = table[:, 0], table[:, 1:]
+    d = day_of_year / 1e4
+    lt = np.clip(np.nan_to_num(lat), -LIMB_MAX_LATITUDE_DEG, LIMB_MAX_LATITUDE_DEG) / 1e4
+    row = np.searchsorted(np.append(0.5 * (levels[1:] + levels[:-1]), 1013.0), np.nan_to_num(cloud_top_hpa, nan=1013.0))
+    row = np.clip(row, 0, len(levels) - 1)
+    q = np.zeros_like(lt)
+    for k in range(coef.shape[1]):
+        q += coef[row, k] * d ** (k // 10) * lt ** (k % 10)
+    return np.minimum(q / 100, 1.0)
+
+
+def cloud_top_pressure_hpa(w, lat, lon, altitude_m):
+    """The pressure [hPa] at altitude_m above each pixel: GFS's geopotential heights of its nearest
+    cell, ln p linear between levels (clamped to the file's levels)."""
+    gh, lnp = w.level_field("gh"), np.log(np.asarray(w.pressure_levels_pa) / 100.0)
+    lats, lons = w.latitudes, w.longitudes
+    j = np.clip(np.rint((np.nan_to_num(lat) - lats[0]) / (lats[1] - lats[0])).astype(int), 0, len(lats) - 1)
+    i = np.rint(((np.nan_to_num(lon) - lons[0]) % 360) / (lons[1] - lons[0])).astype(int) % len(lons)
+    z = gh[:, j, i]  # (levels, pixels...), rising with the level index
+    k = np.clip((z < np.nan_to_num(altitude_m)[None]).sum(axis=0) - 1, 0, len(lnp) - 2)
+    z0, z1 = np.take_along_axis(z, k[None], 0)[0], np.take_along_axis(z, k[None] + 1, 0)[0]
+    f = np.clip((np.nan_to_num(altitude_m) - z0) / np.maximum(z1 - z0, 1.0), 0.0, 1.0)
+    return np.exp(lnp[k] + f * (lnp[k + 1] - lnp[k]))
+
+
 def ohring_olr(img, limb=None):
     """The outgoing long-wave flux [W m-2] of each pixel from its 11.2 um brightness temperature
-    (Ohring, Gruber & Ellingson 1984). limb: (view zenith [deg], day of year) to correct the
-    temperature to nadir first (limb_correction_k), weighted by the share of the pixel's radiance
-    that comes up through the whole clear column: 1 - f (1 - exp(-tau / 2)), f its cloud fraction
-    and tau / 2 its clouds' absorption optical depth at 11 um (half their visible extinction:
-    particles much larger than the wavelength, extinction efficiency 2, absorption 1). Band 14's
-    limb darkening is the water vapour's, and most of the vapour lies below the clouds' tops."""
+    (Ohring, Gruber & Ellingson 1984). limb: (view zenith [deg], day of year, weather) to correct
+    the temperature to nadir first, as Elmer et al. (2016) do: the clear column's correction
+    (limb_correction_k) for the radiance that comes up through it, 1 - f e, and that times their
+    cloud scaling Q at the cloud's top pressure (cloud_scaling) for the cloud's own, f e; f the
+    pixel's cloud fraction, e = 1 - exp(-tau / 2) its clouds' emissivity, tau / 2 their absorption
+    optical depth at 11 um (half the visible extinction: particles much larger than the
+    wavelength, extinction efficiency 2, absorption 1)."""
     tb = img["brightness_temperature_lwir11"]
     if limb is not None:
-        vza, day = limb
-        clear = 1 - img["cloud_fraction"] * -np.expm1(-0.5 * img["cloud_optical_depth"])
-        tb = tb + clear * limb_correction_k(img["latitude"], vza, day)
+        vza, day, w = limb
+        lat, top = img["latitude"], img["cloud_top_altitude"]
+        q = cloud_scaling(lat, cloud_top_pressure_hpa(w, lat, img["longitude"], top), day)
+        cloud = np.nan_to_num(img["cloud_fraction"]) * -np.expm1(-0.5 * np.nan_to_num(img["cloud_optical_depth"]))
+        tb = tb + (1 - cloud * (1 - np.where(np.isfinite(top), q, 1.0))) * limb_correction_k(lat, vza, day)
     return STEFAN_BOLTZMANN * (tb * (OHRING_A + OHRING_B * tb)) ** 4
 
 
@@ -322,7 +358,7 @@ def window_means(scene, w, valid, size, sw_lon, carried):
         if carried or hours == WINDOW_INSTANTS_H[0]:  # the long wave does not see the Sun move
             img = scene.render(sensor=f"geo:{GEO_LON}", size=size, bands=["lwir11"], time=stamp)
             vza = view_zenith_deg(img["latitude"], img["longitude"], GEO_LON)
-            limb = (vza, when.timetuple().tm_yday)
+            limb = (vza, when.timetuple().tm_yday, w)
             g, n = grid_mean(np.where(vza < MAX_VZA, ohring_olr(img, limb), np.nan), img["latitude"],
                              img["longitude"], lats, lons)
             g_seen, _ = grid_mean(np.where(vza < MAX_VZA, ohring_olr(img), np.nan), img["latitude"],
