@@ -94,12 +94,17 @@ def reflectance(image, sun, mu0):
     return np.where(mu0 > 0.1, refl / SOLAR_WEIGHTS.sum(), np.nan)
 
 
+def nearest_cell(lat, lon, lats, lons):
+    """The weather grid's row and column nearest each point (rows unclamped)."""
+    j = np.rint((lat - lats[0]) / (lats[1] - lats[0])).astype(int)
+    i = np.rint(((lon - lons[0]) % 360) / (lons[1] - lons[0])).astype(int) % len(lons)
+    return j, i
+
+
 def grid_mean(values, lat, lon, lats, lons):
     """The mean of the finite pixel values in each weather cell (nearest node), and their count."""
-    dlat, dlon = lats[1] - lats[0], lons[1] - lons[0]
     ok = np.isfinite(values) & np.isfinite(lat) & np.isfinite(lon)
-    j = np.rint((np.where(ok, lat, lats[0]) - lats[0]) / dlat).astype(int)
-    i = np.rint(((np.where(ok, lon, lons[0]) - lons[0]) % 360) / dlon).astype(int) % len(lons)
+    j, i = nearest_cell(np.where(ok, lat, lats[0]), np.where(ok, lon, lons[0]), lats, lons)
     ok &= (j >= 0) & (j < len(lats))
     total = np.zeros((len(lats), len(lons)))
     count = np.zeros_like(total)
@@ -246,10 +251,8 @@ def cloud_top_pressure_hpa(w, lat, lon, altitude_m):
     """The pressure [hPa] at altitude_m above each pixel: GFS's geopotential heights of its nearest
     cell, ln p linear between levels (clamped to the file's levels)."""
     gh, lnp = w.level_field("gh"), np.log(np.asarray(w.pressure_levels_pa) / 100.0)
-    lats, lons = w.latitudes, w.longitudes
-    j = np.clip(np.rint((np.nan_to_num(lat) - lats[0]) / (lats[1] - lats[0])).astype(int), 0, len(lats) - 1)
-    i = np.rint(((np.nan_to_num(lon) - lons[0]) % 360) / (lons[1] - lons[0])).astype(int) % len(lons)
-    z = gh[:, j, i]  # (levels, pixels...), rising with the level index
+    j, i = nearest_cell(np.nan_to_num(lat), np.nan_to_num(lon), w.latitudes, w.longitudes)
+    z = gh[:, np.clip(j, 0, len(w.latitudes) - 1), i]  # (levels, pixels...), rising with the level index
     k = np.clip((z < np.nan_to_num(altitude_m)[None]).sum(axis=0) - 1, 0, len(lnp) - 2)
     z0, z1 = np.take_along_axis(z, k[None], 0)[0], np.take_along_axis(z, k[None] + 1, 0)[0]
     f = np.clip((np.nan_to_num(altitude_m) - z0) / np.maximum(z1 - z0, 1.0), 0.0, 1.0)
