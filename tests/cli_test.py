@@ -429,6 +429,45 @@ class AbiL1b(unittest.TestCase):
                 self.assertEqual(hashlib.sha256(f.read_bytes()).hexdigest(),
                                  hashlib.sha256((Path(d) / f.name).read_bytes()).hexdigest(), f.name)
 
+    def test_goes18_files_carry_goes18_calibration(self):
+        # GOES-West (GOES-18) files: satpy's brightness temperatures equal nephos's to 0.05 K in
+        # bands 13 and 14, and the files carry GOES-18's coefficients: band 13's as NOAA's files
+        # print them (10818.40, 1393.39, 0.07725, 0.99974), band 14's fk1 and fk2 at the band's
+        # central frequency in CRTM's spectral coefficients, 26720.42 GHz as NOAA/EMC's radiance
+        # monitoring lists it (GOES-16's is 26801.46: fk2 1286.27 against 1282.38), with
+        # GOES-16's bc1 and bc2. Faults caught: GOES-16's coefficients in GOES-18's files, a
+        # GOES-18 band left with nephos's own band's.
+        import warnings
+        import netCDF4
+        import numpy as np
+        warnings.filterwarnings("ignore")
+        from satpy import Scene
+        d = Path(self.tmp.name)
+        west = ["render", "--sensor", "abi:west", "--abi-step", "32", "--texture", "32", "--time",
+                "2011-01-15T21:00:00Z", "--bands", "lwir,lwir11"]
+        for args, out in ((["--format", "abi-l1b"], "west_l1b"), ([], "west")):
+            r = run(*west, *args, "--out", d / out)
+            self.assertEqual(r.returncode, 0, r.stderr)
+        files = sorted(str(p) for p in (d / "west_l1b").glob("*.nc"))
+        self.assertEqual([Path(f).name[:29] for f in files], ["OR_ABI-L1b-RadF-M6C13_G18_s20",
+                                                              "OR_ABI-L1b-RadF-M6C14_G18_s20"])
+        nu = 26720.42e9 / 2.99792458e10  # cm-1
+        expected = {"C13": (10818.40, 1393.39, 0.07725, 0.99974),
+                    "C14": (1.191042e-5 * nu**3, 1.4387752 * nu, 0.22516, 0.99920)}
+        scn = Scene(reader="abi_l1b", filenames=files)
+        scn.load(["C13", "C14"])
+        nc = netCDF4.Dataset(d / "west" / "render.nc")
+        for channel, band in (("C13", "lwir"), ("C14", "lwir11")):
+            f = netCDF4.Dataset(next((d / "west_l1b").glob(f"*{channel}_G18*.nc")))
+            f.set_auto_mask(False)
+            got = tuple(float(f[k][...]) for k in ("planck_fk1", "planck_fk2", "planck_bc1", "planck_bc2"))
+            self.assertEqual(got, tuple(float(np.float32(v)) for v in expected[channel]), channel)
+            ours = np.ma.filled(nc["brightness_temperature_" + band][:], np.nan)
+            theirs = scn[channel].values
+            valid = np.isfinite(theirs) & np.isfinite(ours)
+            self.assertGreater(valid.sum(), 15000, channel)
+            self.assertLess(np.max(np.abs(theirs[valid] - ours[valid])), 0.05, channel)
+
     def test_a_satpy_composite_builds(self):
         # satpy's airmass composite (bands 8, 10, 12, 13) from nephos's files: an RGB of the grid.
         scn = self.scene()

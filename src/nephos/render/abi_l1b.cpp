@@ -234,20 +234,59 @@ constexpr std::array<PublishedPlanck, 11> published_planck{{
     {"G18", 13, {10818.40, 1393.39, 0.07725, 0.99974}},
 }};
 
-const PlanckCoefficients* find_published(const std::string& platform, const optics::Band& b) {
+// The central frequencies [GHz] of ABI's thermal bands, from the measured spectral responses, as
+// CRTM's spectral coefficients (abi_g16, abi_g18) give them and NOAA/EMC's radiance monitoring
+// lists them (github.com/NOAA-EMC/obs-monitor, parm/cntrl/rad_angle.abi_g{16,18}.ges.ctl). Their
+// wavenumbers give every published fk1 and fk2 above (AbiL1b.CentralWavenumbersGiveThePublishedFk).
+struct CentralFrequency {
+  const char* platform;
+  int abi_band;
+  double ghz;
+};
+constexpr std::array<CentralFrequency, 20> central_frequencies{{
+    {"G16", 7, 77057.86},  {"G16", 8, 48582.22},  {"G16", 9, 43276.65},  {"G16", 10, 40868.56}, {"G16", 11, 35502.03},
+    {"G16", 12, 31205.12}, {"G16", 13, 29019.94}, {"G16", 14, 26801.46}, {"G16", 15, 24441.91}, {"G16", 16, 22598.05},
+    {"G18", 7, 76825.84},  {"G18", 8, 48472.21},  {"G18", 9, 43211.49},  {"G18", 10, 40832.92}, {"G18", 11, 35393.68},
+    {"G18", 12, 31261.31}, {"G18", 13, 29033.47}, {"G18", 14, 26720.42}, {"G18", 15, 24473.21}, {"G18", 16, 22598.18},
+}};
+
+const PlanckCoefficients* find_published(const std::string& platform, int abi_band) {
   for (const PublishedPlanck& p : published_planck)
-    if (platform == p.platform && b.abi_band == p.abi_band) return &p.c;
+    if (platform == p.platform && abi_band == p.abi_band) return &p.c;
   return nullptr;
 }
 }  // namespace
 
-PlanckCoefficients abi_planck_coefficients(const std::string& platform, const optics::Band& b) {
-  const PlanckCoefficients* p = find_published(platform, b);
-  return p ? *p : planck_coefficients(b);
+double abi_central_wavenumber_cm1(const std::string& platform, int abi_band) {
+  for (const CentralFrequency& f : central_frequencies)
+    if (platform == f.platform && abi_band == f.abi_band) return f.ghz * 1e9 / 2.99792458e10;
+  return 0;
 }
 
-bool has_published_planck(const std::string& platform, const optics::Band& b) {
-  return find_published(platform, b) != nullptr;
+PlanckSource planck_source(const std::string& platform, const optics::Band& b) {
+  if (find_published(platform, b.abi_band)) return PlanckSource::published;
+  if (abi_central_wavenumber_cm1(platform, b.abi_band) > 0 && find_published("G16", b.abi_band))
+    return PlanckSource::central_wavenumber;
+  return PlanckSource::nephos_band;
+}
+
+PlanckCoefficients abi_planck_coefficients(const std::string& platform, const optics::Band& b) {
+  switch (planck_source(platform, b)) {
+    case PlanckSource::published:
+      return *find_published(platform, b.abi_band);
+    case PlanckSource::central_wavenumber: {
+      // fk1 and fk2 at the band's measured central wavenumber; the bandpass correction of the
+      // same band of GOES-16, whose ABI is the same design (on band 13, published for both,
+      // the two differ by 0.0018 K in bc1 and 1e-5 in bc2: < 0.005 K at 300 K).
+      PlanckCoefficients p = *find_published("G16", b.abi_band);
+      const double nu = abi_central_wavenumber_cm1(platform, b.abi_band);
+      p.fk1 = c1 * nu * nu * nu, p.fk2 = c2 * nu;
+      return p;
+    }
+    case PlanckSource::nephos_band:
+      break;
+  }
+  return planck_coefficients(b);
 }
 
 std::string abi_l1b_file_name(const FixedGridView& view, int abi_band, const UtcTime& start) {

@@ -26,13 +26,20 @@ struct PlanckCoefficients {
 /// c2 nu at its centre wavenumber nu, bc1 and bc2 the least-squares line of the centre's
 /// brightness temperature against the band-mean one over 180-340 K.
 PlanckCoefficients planck_coefficients(const optics::Band& b);
-/// The coefficients `platform`'s ("G16", "G18") L1b files carry for thermal band b: the published
-/// ones (those of ABI's measured spectral responses, as NOAA's files print them: GOES-16 bands
-/// 7-16, GOES-18 band 13) where known, else planck_coefficients(b). Rad is written as the
-/// radiance these give nephos's brightness temperature, so satpy's BT is nephos's whichever.
+/// The central wavenumber [cm^-1] of `platform`'s ("G16", "G18") ABI band `abi_band` (7-16) from
+/// its measured spectral response (CRTM's), or 0 where not known.
+double abi_central_wavenumber_cm1(const std::string& platform, int abi_band);
+/// Where abi_planck_coefficients() takes a band's coefficients from.
+enum class PlanckSource {
+  published,           ///< as NOAA's L1b files print them (GOES-16 bands 7-16, GOES-18 band 13)
+  central_wavenumber,  ///< fk1, fk2 at the measured central wavenumber; bc1, bc2 GOES-16's (GOES-18)
+  nephos_band,         ///< planck_coefficients(b): nephos's own band
+};
+PlanckSource planck_source(const std::string& platform, const optics::Band& b);
+/// The coefficients `platform`'s ("G16", "G18") L1b files carry for thermal band b, from the
+/// source planck_source() names. Rad is written as the radiance these give nephos's brightness
+/// temperature, so satpy's BT is nephos's whichever.
 PlanckCoefficients abi_planck_coefficients(const std::string& platform, const optics::Band& b);
-/// Whether abi_planck_coefficients(platform, b) are the published ones.
-bool has_published_planck(const std::string& platform, const optics::Band& b);
 
 /// The file name ABI gives band `abi_band`'s L1b file of `view` for a scan from `start`:
 /// OR_ABI-L1b-Rad{F,C,M}-M6C{nn}_{G16,G18}_s{YYYYJJJHHMMSSt}_e{...}_c{...}.nc (end and creation:

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
@@ -158,13 +160,13 @@ TEST(FixedGrid, CloudsSitWhereTheEllipsoidPutsThem) {
 // bands, for every thermal band: fk1 = c1 nu^3 at the wavenumber nu = fk2 / c2 that fk2 implies
 // (c1, c2 from CODATA; within 0.05 %: the values' printed digits; a mistyped digit is off by
 // more), that wavenumber inside nephos's band edges (the bands are ABI's), and the calibration
-// inverting itself. GOES-18 has band 13's; its other bands fall back to nephos's own.
+// inverting itself. GOES-18 has band 13's published.
 TEST(AbiL1b, PublishedPlanckCoefficientsAreAbisBands) {
   constexpr double c1 = 1.191042e-5, c2 = 1.4387752;
   int published = 0;
   for (const optics::Band& b : optics::bands()) {
     if (!b.thermal) continue;
-    ASSERT_TRUE(has_published_planck("G16", b)) << b.name;
+    ASSERT_EQ(planck_source("G16", b), PlanckSource::published) << b.name;
     const PlanckCoefficients p = abi_planck_coefficients("G16", b);
     const double nu = p.fk2 / c2;
     EXPECT_NEAR(p.fk1 / (c1 * nu * nu * nu), 1.0, 5e-4) << b.name;
@@ -175,11 +177,46 @@ TEST(AbiL1b, PublishedPlanckCoefficientsAreAbisBands) {
     ++published;
   }
   EXPECT_EQ(published, 10);
-  EXPECT_TRUE(has_published_planck("G18", optics::band("lwir")));
+  EXPECT_EQ(planck_source("G18", optics::band("lwir")), PlanckSource::published);
   EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("lwir")).fk2, 1393.39, 1e-9);
-  EXPECT_FALSE(has_published_planck("G18", optics::band("wv62")));
-  EXPECT_NEAR(abi_planck_coefficients("G18", optics::band("wv62")).fk2, planck_coefficients(optics::band("wv62")).fk2,
-              1e-12);
+}
+
+// CRTM's central wavenumbers of ABI's bands (NOAA/EMC's listing) against NOAA's L1b files, two
+// publications of the same measured responses: c1 nu^3 and c2 nu give every published fk1 and
+// fk2, GOES-16's ten and GOES-18's band 13 (measured within 4.5e-6 and 0.0048 K: the printed
+// digits, and the frequencies' 0.01 GHz). So GOES-18's other bands take fk1 and fk2 from them,
+// with GOES-16's bc1 and bc2 (GOES-18 band 13's differ by 0.0018 K and 1e-5). Fault run:
+// GOES-18's band-15 frequency in GOES-16's place puts its fk2 1.5 K off, and the test fails.
+TEST(AbiL1b, CentralWavenumbersGiveThePublishedFk) {
+  constexpr double c1 = 1.191042e-5, c2 = 1.4387752;
+  std::vector<std::pair<std::string, int>> published{{"G18", 13}};
+  for (int b = 7; b <= 16; ++b) published.emplace_back("G16", b);
+  int checked = 0;
+  for (const auto& [platform, b] : published) {
+    const optics::Band* band = nullptr;
+    for (const optics::Band& x : optics::bands())
+      if (x.abi_band == b) band = &x;
+    ASSERT_TRUE(band);
+    ASSERT_EQ(planck_source(platform, *band), PlanckSource::published);
+    const PlanckCoefficients p = abi_planck_coefficients(platform, *band);
+    const double nu = abi_central_wavenumber_cm1(platform, b);
+    EXPECT_NEAR(c1 * nu * nu * nu / p.fk1, 1.0, 1e-5) << platform << " band " << b;
+    EXPECT_NEAR(c2 * nu, p.fk2, 0.01) << platform << " band " << b;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 11);
+  for (const optics::Band& b : optics::bands()) {
+    if (!b.thermal || b.abi_band == 13) continue;
+    ASSERT_EQ(planck_source("G18", b), PlanckSource::central_wavenumber) << b.name;
+    const PlanckCoefficients p = abi_planck_coefficients("G18", b), g16 = abi_planck_coefficients("G16", b);
+    const double nu = abi_central_wavenumber_cm1("G18", b.abi_band);
+    EXPECT_DOUBLE_EQ(p.fk2, c2 * nu) << b.name;
+    EXPECT_EQ(p.bc1, g16.bc1) << b.name;
+    EXPECT_EQ(p.bc2, g16.bc2) << b.name;
+    EXPECT_GT(1e4 / nu, b.lo_um) << b.name;
+    EXPECT_LT(1e4 / nu, b.hi_um) << b.name;
+    for (double t : {200.0, 250.0, 300.0}) EXPECT_NEAR(p.brightness_temperature(p.radiance(t)), t, 1e-9) << b.name;
+  }
 }
 
 }  // namespace
