@@ -435,8 +435,8 @@ class AbiL1b(unittest.TestCase):
         # print them (10818.40, 1393.39, 0.07725, 0.99974), band 14's fk1 and fk2 at the band's
         # central frequency in CRTM's spectral coefficients, 26720.42 GHz as NOAA/EMC's radiance
         # monitoring lists it (GOES-16's is 26801.46: fk2 1286.27 against 1282.38), with
-        # GOES-16's bc1 and bc2. Faults caught: GOES-16's coefficients in GOES-18's files, a
-        # GOES-18 band left with nephos's own band's.
+        # GOES-16's bc1 and bc2; each file names its coefficients' source. Faults caught:
+        # GOES-16's coefficients in GOES-18's files, a GOES-18 band left with nephos's own band's.
         import warnings
         import netCDF4
         import numpy as np
@@ -462,6 +462,8 @@ class AbiL1b(unittest.TestCase):
             f.set_auto_mask(False)
             got = tuple(float(f[k][...]) for k in ("planck_fk1", "planck_fk2", "planck_bc1", "planck_bc2"))
             self.assertEqual(got, tuple(float(np.float32(v)) for v in expected[channel]), channel)
+            source = {"C13": "published: G18's L1b files", "C14": "fk1, fk2 at G18's measured central wavenumber"}
+            self.assertTrue(f.getncattr("planck_coefficients_source").startswith(source[channel]), channel)
             ours = np.ma.filled(nc["brightness_temperature_" + band][:], np.nan)
             theirs = scn[channel].values
             valid = np.isfinite(theirs) & np.isfinite(ours)

@@ -67,6 +67,19 @@ int coordinate(io::NetcdfWriter& nc, const std::string& name, double first, doub
   return v;
 }
 
+// Where a file's planck_fk1, fk2, bc1 and bc2 come from, for its readers (a global attribute).
+std::string planck_source_text(const std::string& platform, const optics::Band& b) {
+  switch (planck_source(platform, b)) {
+    case PlanckSource::published:
+      return fmt::format("published: {}'s L1b files", platform);
+    case PlanckSource::central_wavenumber:
+      return fmt::format("fk1, fk2 at {}'s measured central wavenumber of the band (CRTM); bc1, bc2 G16's", platform);
+    case PlanckSource::nephos_band:
+      break;
+  }
+  return "nephos's band, flat between its nominal edges";
+}
+
 void write_band(const std::filesystem::path& path, const RenderImage& img, std::size_t bi, const FixedGridView& view,
                 const UtcTime& start, double sun_distance_au, const std::vector<std::uint8_t>& on_earth) {
   const optics::Band& band = optics::band(img.bands[bi]);
@@ -148,6 +161,7 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.put_attribute(g, "instrument_ID", "nephos");
   nc.put_attribute(g, "production_site", "nephos");
   nc.put_attribute(g, "orbital_slot", view.platform == "G16" ? "GOES-East" : "GOES-West");
+  if (band.thermal) nc.put_attribute(g, "planck_coefficients_source", planck_source_text(view.platform, band));
   nc.put_attribute(g, "scene_id",
                    sec.abbreviation == 'F'   ? "Full Disk"
                    : sec.abbreviation == 'C' ? "CONUS"
