@@ -35,6 +35,7 @@ Usage: PYTHONPATH=build/python scripts/validate_radiation.py WEATHER OUTDIR [--s
 Writes OUTDIR/summary.json and OUTDIR/{olr,albedo}.png (nephos left, GFS right).
 """
 import argparse
+import functools
 import json
 import math
 import struct
@@ -215,11 +216,17 @@ def side_by_side(path, a, b, lo, hi, rows, cols, scale=4):
     write_png(path, np.repeat(np.repeat(img, scale, axis=0), scale, axis=1))
 
 
+@functools.cache
+def data_table(path, header_lines):
+    """A data table's numbers (its '#' citation lines and column header skipped), read once."""
+    return np.loadtxt(path, delimiter=",", comments="#", skiprows=header_lines)
+
+
 def limb_correction_k(lat, vza_deg, day_of_year):
     """What a clear column's 11.2 um brightness temperature gains from view zenith vza_deg to nadir
     [K]: Elmer, Berndt & Jedlovec (2016) eq. 6, C1 x + C2 x^2 with x = |ln cos vza|, C1 and C2
     their polynomials in day of year and latitude for ABI band 14 (LIMB_TABLE)."""
-    table = np.loadtxt(LIMB_TABLE, delimiter=",", comments="#", skiprows=6)
+    table = data_table(LIMB_TABLE, 6)
     d = day_of_year / 100.0
     lt = np.clip(np.nan_to_num(lat), -LIMB_MAX_LATITUDE_DEG, LIMB_MAX_LATITUDE_DEG) / 100.0
     c1, c2 = np.zeros_like(lt), np.zeros_like(lt)
@@ -235,7 +242,7 @@ def cloud_scaling(lat, cloud_top_hpa, day_of_year):
     whose top lies at cloud_top_hpa: their ABI band-14 polynomials in day of year and latitude
     (both / 10^4, the result / 100, at most 1) on 59 pressure levels, each holding between the
     midpoints to its neighbours (CLOUD_SCALING_TABLE)."""
-    table = np.loadtxt(CLOUD_SCALING_TABLE, delimiter=",", comments="#", skiprows=8)
+    table = data_table(CLOUD_SCALING_TABLE, 8)
     levels, coef = table[:, 0], table[:, 1:]
     d = day_of_year / 1e4
     lt = np.clip(np.nan_to_num(lat), -LIMB_MAX_LATITUDE_DEG, LIMB_MAX_LATITUDE_DEG) / 1e4

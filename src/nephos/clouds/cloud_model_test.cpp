@@ -159,8 +159,7 @@ TEST(CloudShell, NoCloudLiesOutsideItsAltitudeWindow) {
     varied_lift->data()[i] = static_cast<float>(-1500 + 5000 * uniform01(21, i, 1));
   }
   for (const auto& [mask, lift] : {std::pair{uniform, uniform_lift}, std::pair{varied, varied_lift}}) {
-    CloudShell s(CloudType::low_cumulus, p, small_textures(), mask, std::vector<DisplacementMap>(4));
-    s.set_lift(lift);
+    const CloudShell s(CloudType::low_cumulus, p, small_textures(), mask, std::vector<DisplacementMap>(4), lift);
     constexpr std::size_t n = 200000;
     const WindowCount c = count_outside_windows(s, n);
     std::printf("mask texels %d: outside their window %zu of %zu points; of them cloud: %zu filtered, %zu point\n",
