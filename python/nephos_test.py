@@ -233,7 +233,7 @@ class RadiationAgainstGfs(unittest.TestCase):
     # nephos's outgoing long-wave flux and albedo over GFS's 6-hour window, the clouds carried back
     # by the wind, against GFS's own (ulwrf, uswrf at nominalTop) on the embedded date. It
     # measures r 0.883 and bias -4.4 W m-2 (long wave, corrected to nadir as Elmer et al. 2016;
-    # -7.2 as seen), r 0.773 and bias +0.018 (albedo); the
+    # -7.2 as seen), r 0.805 and bias -0.002 (albedo); the
     # full configuration (800 x 800, 256^3) is in docs/VALIDATION.md. The bounds sit 0.05 below
     # the correlations (the spread between texture sizes and image sizes is of that order) and at
     # the issue's +-10 W m-2 for the bias: a regression in the radiometry (a band's solar
@@ -250,11 +250,11 @@ class RadiationAgainstGfs(unittest.TestCase):
             self.assertTrue((Path(d) / "olr.png").read_bytes().startswith(b"\x89PNG"))
         self.assertGreater(s["olr"]["correlation"], 0.825)
         self.assertLess(abs(s["olr"]["bias"]), 10.0)
-        self.assertGreater(s["albedo"]["correlation"], 0.72)
+        self.assertGreater(s["albedo"]["correlation"], 0.755)
         self.assertLess(abs(s["albedo"]["bias"]), 0.05)
         # The wind carries the clouds the right way: carried back through the window they agree
         # better with the window's means than left at the valid time (measured +0.012 long wave,
-        # +0.032 albedo; carried forward instead, -0.021 and -0.037). The bounds are under half
+        # +0.029 albedo; carried forward instead, -0.021 and -0.037). The bounds are under half
         # the gains.
         fixed = s["clouds_fixed_at_valid_time"]
         self.assertGreater(s["olr"]["correlation"], fixed["olr"]["correlation"] + 0.006)

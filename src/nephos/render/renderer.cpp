@@ -977,7 +977,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   // The layer in every band at once (cloud_optics()'s albedo, cloud_layer()), over the bands
   // padded with inert lanes (w = 0) to optics::band_lanes().
   const std::size_t lanes = optics::band_lanes(nb);
-  alignas(64) std::array<double, optics::max_band_count> w{}, omega, tau, refl, trans, emis;
+  alignas(64) std::array<double, optics::max_band_count> w{}, omega, tau, refl, trans, emis, beam;
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
     w[b] =
@@ -986,11 +986,14 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   optics::anomalous_diffraction_albedos(w.data(), lanes, omega.data());
   tau.fill(extinction_per_m * hit.depth_m * mu_view);
   cloud_layers(tau.data(), omega.data(), asym, mu_view, lanes, refl.data(), trans.data(), emis.data());
+  // The Sun's beam is reflected as the layer reflects a beam from the Sun's height (a thin layer
+  // more of a low Sun); the skylight, diffuse, as the layer reflects diffuse light.
+  if (mu_sun > 0) optics::delta_eddington_beam_reflectances(tau.data(), omega.data(), asym, mu_sun, lanes, beam.data());
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
     double rad = 0;
     if (band.sunlit() && mu_sun > 0)  // Lambertian facets lit by the beam, plus skylight
-      rad += refl[b] / M_PI * (sun.direct[b] * ((1 - f_ind) * lit + f_ind * mu_sun) + sun.sky[b]);
+      rad += (beam[b] * sun.direct[b] * ((1 - f_ind) * lit + f_ind * mu_sun) + refl[b] * sun.sky[b]) / M_PI;
     if (band.thermal) rad += emis[b] * c.tables.planck[b]->forward(t_cloud);
     const double up_share = band.sunlit() ? rayleigh_up(air.tau_rayleigh[b], mu_air) : 1.0;
     // Over the pixel: the cloud's share of it, and the rest seen unobstructed.

@@ -212,6 +212,43 @@ TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
   EXPECT_LT(emissivity[1], emissivity[0]);
 }
 
+TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) {
+  // A homogeneous layer of droplets (g 0.85), 0.1 g/m^3 over 2 km: visible optical depth 30.
+  // Seen from above in the visible, no atmosphere, its reflectance factor pi L / (E mu0) is the
+  // plane-parallel layer's reflectance to a beam from the Sun's height (delta-Eddington, which
+  // optics_test holds to exact transport within 0.04), not one reflectance for every Sun:
+  // higher under a low Sun. The sea below adds what reaches it and comes back through the
+  // cloud, at most T^2 a ~ 0.19^2 x 0.06 ~ 0.003 (its direct sunlight and glint are in the
+  // cloud's shadow, exp(-4.5 / mu0) < 0.004): bound 0.005. Fault caught: the hemispheric
+  // reflectance for every Sun (0.82 here).
+  clouds::CloudScene scene;
+  scene.shells.push_back(layered_shell(1.0, 0.0, 1.0f, 0.85, 0.1));
+  const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
+  const Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
+  RenderParams params;
+  params.bands = {"vis"};
+  params.atmosphere = false;
+  const optics::Band& b = optics::band("vis");
+  const auto props = optics::cloud_optics(optics::Phase::water, 0.1, 10, b);
+  const double tau = props.extinction_per_m * 2000.0, omega = props.single_scattering_albedo;
+  ASSERT_NEAR(tau, 30, 1e-9);
+  double factor[2];
+  const double mu0s[2] = {0.8, 0.5};
+  for (int i = 0; i < 2; ++i) {
+    const double mu0 = mu0s[i];
+    earth::SunPosition sun{};
+    sun.direction_ecef = mu0 * up + std::sqrt(1 - mu0 * mu0) * east;
+    sun.distance_au = 1;
+    const RenderImage img = render(scene, sensor, sun, params);
+    double expected = 0;
+    optics::delta_eddington_beam_reflectances(&tau, &omega, 0.85, mu0, 1, &expected);
+    factor[i] = M_PI * img.radiance[0][0] / (b.solar_irradiance * mu0);
+    std::printf("[ measured ] mu0 %.1f: pi L / (E mu0) %.4f, delta-Eddington %.4f\n", mu0, factor[i], expected);
+    EXPECT_NEAR(factor[i], expected, 0.005) << "mu0 " << mu0;
+  }
+  EXPECT_GT(factor[1], factor[0] + 0.03);
+}
+
 TEST(Renderer, WhatLiesBehindASlantLayerIsSeenAsThroughAPlaneParallelOne) {
   // What lies behind a cloud reaches the sensor through the plane-parallel layer of the same
   // vertical optical depth: the direct beam exp(-tau' / mu) (Beer-Lambert along the ray, eq.
