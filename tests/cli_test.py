@@ -250,7 +250,7 @@ class Render(unittest.TestCase):
         # cloud's emission, so sunlit clouds are warmer there than at 11.2 um (the daytime
         # BT(3.9) - BT(11) > 0 of water clouds that fog and low-cloud products use). Fault
         # caught: no solar term at 3.9 um (the difference is then below 0). One-sided: it checks
-        # that the term is there, not its size (measured median 15 K; 23 K with the source
+        # that the term is there, not its size (measured median 16 K; 26 K with the source
         # paper's slab, asymmetry 0).
         import netCDF4
         import numpy as np

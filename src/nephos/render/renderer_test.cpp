@@ -754,7 +754,7 @@ TEST(RendererOnGfs, FilteringRemovesMostOfTheAliasing) {
   // per pixel, filtered and not, against the mean of 64 unfiltered rays per pixel (the
   // detector's integral over its footprint, by supersampling: numbers the filter's code does not
   // produce). The filtered image must differ from it by at most 0.42 of what the point-sampled
-  // one does in visible radiance (measured 0.33; 0.49 with the sunlit facets lit as the
+  // one does in visible radiance (measured 0.35; 0.50 with the sunlit facets lit as the
   // filtered normal alone, coherence 1: the bound lies between) and 0.6 in 10.35 um brightness
   // temperature (measured 0.44; the goal at 400^2 is measured by `nephos bench
   // render`), and the mean cloud fraction must agree within 0.01 (measured +0.006). Faults
