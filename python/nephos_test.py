@@ -233,7 +233,7 @@ class RadiationAgainstGfs(unittest.TestCase):
     # nephos's outgoing long-wave flux and albedo over GFS's 6-hour window, the clouds carried back
     # by the wind, against GFS's own (ulwrf, uswrf at nominalTop) on the embedded date. It
     # measures r 0.883 and bias -4.4 W m-2 (long wave, corrected to nadir as Elmer et al. 2016;
-    # -7.2 as seen), r 0.805 and bias -0.002 (albedo); the
+    # -7.2 as seen), r 0.805 and bias -0.000 (albedo); the
     # full configuration (800 x 800, 256^3) is in docs/VALIDATION.md. The bounds sit 0.05 below
     # the correlations (the spread between texture sizes and image sizes is of that order) and at
     # the issue's +-10 W m-2 for the bias: a regression in the radiometry (a band's solar

@@ -176,29 +176,54 @@ void two_stream_slabs(const double* tau, const double* omega_in, std::size_t n, 
   }
 }
 
+namespace {
+
+// delta_eddington_beam() for one slab: f = g^2 and gs = g / (1 + g) of its asymmetry g; mu0
+// already at least 1e-3 (mu0_in the caller's, for the Sun below the horizon). Meador & Weaver's
+// forms with numerator and denominator divided by exp(k tau'), so that every exponential decays;
+// at mu0 = 1 / k they are 0 / 0 (a removable pole), and mu0 is nudged off it.
+[[gnu::always_inline]] inline void beam_slab(double tau, double omega, double f, double gs, double mu0_in, double mu0,
+                                             double& r, double& t, double& direct) {
+  const double w = std::clamp(omega, 0.0, 1.0), ta = std::max(tau, 0.0);
+  const double ws = (1 - f) * w / (1 - w * f), ts = (1 - w * f) * ta;
+  const double g1 = (7 - ws * (4 + 3 * gs)) / 4, g2 = -(1 - ws * (4 - 3 * gs)) / 4;
+  const double g3 = (2 - 3 * gs * mu0) / 4, g4 = 1 - g3;
+  // k^2 = g1^2 - g2^2 = 3 (1 - ws)(1 - ws gs), as a product: no cancellation near ws = 1.
+  const double k = std::sqrt(3 * (1 - ws) * (1 - ws * gs));
+  const double near_pole = std::abs(1 - k * mu0) < 1e-6 ? 1 + 2e-6 : 1.0;
+  const double m = mu0 * near_pole, km = k * m, a1 = g1 * g4 + g2 * g3, a2 = g1 * g3 + g2 * g4;
+  const double beam = std::exp(-ts / m), e2 = std::exp(-2 * k * ts), ek = std::exp(-k * ts);
+  const double den = (1 - km * km) * ((k + g1) + (k - g1) * e2);
+  const double r_general =
+      ws * ((1 - km) * (a2 + k * g3) - (1 + km) * (a2 - k * g3) * e2 - 2 * k * (g3 - a2 * m) * beam * ek) / den;
+  const double t_general =
+      -ws * ((1 + km) * (a1 + k * g4) * beam - (1 - km) * (a1 - k * g4) * e2 * beam - 2 * k * (g4 + a1 * m) * ek) / den;
+  // Conservative (k tau' < 1e-4): R closed, and what is not reflected is transmitted.
+  const double r_conservative = (g1 * ts + (g3 - g1 * mu0) * (1 - beam)) / (1 + g1 * ts);
+  const bool conservative = k * ts < 1e-4, lit = (ta > 0) & (mu0_in > 0);
+  const double rr = std::clamp(conservative ? r_conservative : r_general, 0.0, 1.0);
+  const double tt = std::clamp(conservative ? 1 - r_conservative - beam : t_general, 0.0, 1.0 - rr);
+  r = lit ? rr : 0.0;
+  t = lit ? tt : 0.0;
+  direct = mu0_in > 0 ? beam : 0.0;
+}
+
+}  // namespace
+
+BeamSlab delta_eddington_beam(double tau, double omega, double g, double mu0) {
+  BeamSlab b{};
+  beam_slab(tau, omega, g * g, g / (1 + g), mu0, std::max(mu0, 1e-3), b.reflectance, b.diffuse_transmittance,
+            b.direct_transmittance);
+  return b;
+}
+
 void delta_eddington_beam_reflectances(const double* tau, const double* omega, double g, double mu0_in, std::size_t n,
                                        double* r) {
-  const double f = g * g, gs = g / (1 + g);
-  // At mu0 = 1 / k the closed form is 0 / 0 (a removable pole): mu0 is nudged off it below.
-  const double mu0 = std::max(mu0_in, 1e-3);
+  const double f = g * g, gs = g / (1 + g), mu0 = std::max(mu0_in, 1e-3);
 #pragma omp simd
   for (std::size_t i = 0; i < n; ++i) {
-    const double w = std::clamp(omega[i], 0.0, 1.0), ta = std::max(tau[i], 0.0);
-    const double ws = (1 - f) * w / (1 - w * f), ts = (1 - w * f) * ta;
-    const double g1 = (7 - ws * (4 + 3 * gs)) / 4, g2 = -(1 - ws * (4 - 3 * gs)) / 4;
-    const double g3 = (2 - 3 * gs * mu0) / 4, g4 = 1 - g3;
-    // k^2 = g1^2 - g2^2 = 3 (1 - ws)(1 - ws gs), as a product: no cancellation near ws = 1.
-    const double k = std::sqrt(3 * (1 - ws) * (1 - ws * gs));
-    const double near_pole = std::abs(1 - k * mu0) < 1e-6 ? 1 + 2e-6 : 1.0;
-    const double m = mu0 * near_pole, km = k * m, a2 = g1 * g3 + g2 * g4;
-    const double beam = std::exp(-ts / m), e2 = std::exp(-2 * k * ts), e_beam = std::exp(-ts / m - k * ts);
-    // Numerator and denominator divided by exp(k tau'): every exponential decays.
-    const double general = ws *
-                           ((1 - km) * (a2 + k * g3) - (1 + km) * (a2 - k * g3) * e2 - 2 * k * (g3 - a2 * m) * e_beam) /
-                           ((1 - km * km) * ((k + g1) + (k - g1) * e2));
-    const double conservative = (g1 * ts + (g3 - g1 * mu0) * (1 - beam)) / (1 + g1 * ts);
-    const double ri = k * ts < 1e-4 ? conservative : general;
-    r[i] = (ta > 0) & (mu0_in > 0) ? std::clamp(ri, 0.0, 1.0) : 0.0;
+    double t, direct;
+    beam_slab(tau[i], omega[i], f, gs, mu0_in, mu0, r[i], t, direct);
   }
 }
 

@@ -84,16 +84,24 @@ SlabResult two_stream_slab(double tau, double omega);
 /// vectorises; every lane of a whole vector (n a multiple of 8) takes the same arithmetic.
 void two_stream_slabs(const double* tau, const double* omega, std::size_t n, double* reflectance,
                       double* transmittance);
-/// The reflectance of a plane-parallel slab to a direct beam at cosine of incidence mu0 [-], the
-/// delta-Eddington approximation (Joseph, Wiscombe & Weinman 1976, J. Atmos. Sci. 33, 2452: the
-/// forward peak g^2 taken as unscattered, tau' = (1 - omega g^2) tau, omega' = (1 - g^2) omega /
-/// (1 - omega g^2), g' = g / (1 + g)) in Meador & Weaver's (1980, J. Atmos. Sci. 37, 630) closed
-/// form for a beam with their Table 1's Eddington coefficients, reduced to the conservative form
-/// R = (g1 tau' + (g3 - g1 mu0)(1 - exp(-tau'/mu0))) / (1 + g1 tau') where k tau' < 1e-4. Unlike
-/// two_stream_slab()'s, it depends on the Sun's height: a thin cloud reflects more of a low Sun.
-/// For n slabs at once (arrays of n), in a loop that vectorises; r in [0, 1], 0 for tau <= 0 or
-/// mu0 <= 0. Within 0.04 of exact transport for tau 3-30 and mu0 >= 0.5 (optics_test: 0.030 at
-/// tau 3 and mu0 0.5, at most 0.013 elsewhere).
+/// A plane-parallel slab lit by a direct beam at cosine of incidence mu0 [-], each part as a
+/// share of the beam's flux: the reflectance, the diffusely transmitted part and the beam left
+/// undeflected exp(-tau'/mu0) (tau' delta-scaled, below). The delta-Eddington approximation
+/// (Joseph, Wiscombe & Weinman 1976, J. Atmos. Sci. 33, 2452: the forward peak g^2 taken as
+/// unscattered, tau' = (1 - omega g^2) tau, omega' = (1 - g^2) omega / (1 - omega g^2),
+/// g' = g / (1 + g)) in Meador & Weaver's (1980, J. Atmos. Sci. 37, 630) closed forms for a beam
+/// with their Table 1's Eddington coefficients; where k tau' < 1e-4 the conservative form
+/// R = (g1 tau' + (g3 - g1 mu0)(1 - exp(-tau'/mu0))) / (1 + g1 tau') and T = 1 - R - exp(-tau'/mu0).
+/// Unlike two_stream_slab()'s, the parts depend on the Sun's height: a thin cloud reflects more
+/// of a low Sun. Each part in [0, 1], R + T at most 1; all 0 for mu0 <= 0, R and T 0 for
+/// tau <= 0. Within 0.045 of exact transport for tau 3-30, omega 0.95-1 and mu0 >= 0.5
+/// (optics_test: at most 0.030 reflected and 0.038 transmitted, thin layers under a low Sun).
+struct BeamSlab {
+  double reflectance, diffuse_transmittance, direct_transmittance;
+};
+BeamSlab delta_eddington_beam(double tau, double omega, double g, double mu0);
+/// delta_eddington_beam()'s reflectance for n slabs at once (arrays of n) of one asymmetry g, in a
+/// loop that vectorises.
 void delta_eddington_beam_reflectances(const double* tau, const double* omega, double g, double mu0, std::size_t n,
                                        double* r);
 /// The seed's conservative closed forms (3a) I_trans = I0/(1+tau), (3b) I_ref = I0 tau/(1+tau),

@@ -645,9 +645,9 @@ struct RenderContext {
   const optics::Band& vis = optics::band("vis");     ///< the band of the reported optical depth
   std::vector<optics::OpticalProperties> vis_props;  ///< [type], the types' own, for the optical depth
   std::vector<double> asymmetry;                     ///< [type], the types' own
-  /// [type][band] the similarity-scaled extinction factor (1 - omega g) of the type's own optics
-  /// and its scaled single-scattering albedo, for the shadows it casts.
-  std::vector<std::array<double, optics::max_band_count>> shadow_scale, shadow_omega;
+  /// [type][band] the single-scattering albedo of the type's own optics, the similarity-scaled
+  /// extinction factor (1 - omega g) and the scaled albedo, for the shadows it casts.
+  std::vector<std::array<double, optics::max_band_count>> shadow_albedo, shadow_scale, shadow_omega;
   /// [node * shells + shell] the vertical visible optical depth of each shell's clouds at each
   /// weather node (EarthView's) from the weather's condensate: the layer's path over the cloud's
   /// share (the weather's own masks, not carried), as microphysics() gives its elements; with no
@@ -667,7 +667,8 @@ struct RenderContext {
     sun_dir = sun.direction_ecef;
     sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
     const std::size_t ns = scene.shells.size();
-    vis_props.resize(ns), asymmetry.resize(ns), shadow_scale.resize(ns), shadow_omega.resize(ns);
+    vis_props.resize(ns), asymmetry.resize(ns), shadow_albedo.resize(ns), shadow_scale.resize(ns),
+        shadow_omega.resize(ns);
     for (std::size_t si = 0; si < ns; ++si) {
       const clouds::CloudTypeParams& cp = scene.shells[si].params();
       asymmetry[si] = cp.asymmetry;
@@ -677,7 +678,7 @@ struct RenderContext {
             optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *tables.bands[b])
                 .single_scattering_albedo;
         const optics::SlabOptics so = optics::similarity_scaled(1.0, omega, cp.asymmetry);
-        shadow_scale[si][b] = so.tau, shadow_omega[si][b] = so.omega;
+        shadow_albedo[si][b] = omega, shadow_scale[si][b] = so.tau, shadow_omega[si][b] = so.omega;
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
@@ -851,7 +852,8 @@ struct CloudLengths {
 // is dimmed by exp(-tau') of the similarity-scaled optical depth of its length there (length /
 // chance), the rest passes (the mean transmittance, not exp(-mean tau): broken cloud lets the
 // gaps' light through); shells overlap at random. What the clouds scatter forwards joins the
-// diffuse part: the plane-parallel layer of the mean optical depth where there is cloud.
+// diffuse part: what the plane-parallel layer of their mean optical depth passes of a beam from
+// the Sun's height, less the direct beam.
 Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const earth::Vec3& point, const AirSample& air,
                   double mu_sun, const CloudLengths* lengths = nullptr) {
   Sunlight s;
@@ -874,19 +876,26 @@ Sunlight sunlight(const RenderContext& c, const EarthView::Place& at, const eart
     s.direct[b] = e0 * direct;
     s.sky[b] = e0 * mu_sun * (rayleigh_down(air.tau_rayleigh[b], mu_sun) - direct);
     if (!lengths) continue;
-    double t_direct = 1, clear = 1, tau = 0, omega_tau = 0;  // tau: summed over shells, chance-weighted
+    // Chance-weighted sums over the shells: the scaled optical depth along the beam (tau), and
+    // the unscaled one (tau_u) with its scattering (omega tau_u) and forward scattering (g omega
+    // tau_u).
+    double t_direct = 1, clear = 1, tau = 0, tau_u = 0, scattering = 0, forward = 0;
     for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
       const double p = lengths->chance[si];
       if (!(p > 0)) continue;
-      const double t = c.shadow_scale[si][b] * tau_beam[si];
+      const double t = c.shadow_scale[si][b] * tau_beam[si], w = p * tau_beam[si] * c.shadow_albedo[si][b];
       t_direct *= 1 - p + p * std::exp(-t), clear *= 1 - p;
-      tau += p * t, omega_tau += p * t * c.shadow_omega[si][b];
+      tau += p * t, tau_u += p * tau_beam[si], scattering += w, forward += w * c.asymmetry[si];
     }
     if (tau <= 0) continue;
-    const double cloudy = 1 - clear, tau_vertical = tau / cloudy * mu_sun;
+    // Under the cloudy share, the layer of their mean optical depth passes the beam as a
+    // plane-parallel cloud lit from the Sun's height does (delta-Eddington, as the clouds reflect
+    // it: shade_hit), less what the direct beam above already carries.
+    const double cloudy = 1 - clear;
+    const optics::BeamSlab layer = optics::delta_eddington_beam(tau_u / cloudy * mu_sun, scattering / tau_u,
+                                                                scattering > 0 ? forward / scattering : 0.0, mu_sun);
     const double t_diffuse =
-        cloudy * std::max(0.0, optics::two_stream_slab(tau_vertical, omega_tau / tau).transmittance -
-                                   std::exp(-tau_vertical / 0.6));
+        cloudy * std::max(0.0, layer.diffuse_transmittance + layer.direct_transmittance - std::exp(-tau / cloudy));
     s.sky[b] += s.direct[b] * mu_sun * t_diffuse;
     s.direct[b] *= t_direct;
   }

@@ -249,6 +249,49 @@ TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) 
   EXPECT_GT(factor[1], factor[0] + 0.03);
 }
 
+TEST(Renderer, TheSunlightUnderALayerIsWhatAPlaneParallelCloudPasses) {
+  // The sea under a homogeneous layer of droplets (g 0.85, visible optical depth 3), the Sun at
+  // 60 deg from the zenith (its glint 30 deg off the nadir view: negligible), no atmosphere,
+  // seen from straight above, and the same sea without the layer (radiance L0 = a E mu0 / pi).
+  // The sea under the layer is lit by the share T of the beam the layer passes, direct and
+  // diffuse, and is seen through the layer: L = R_b E mu0 / pi + t_view T L0 / (1 - R a), with
+  // R_b the layer's reflectance to the beam, t_view what it passes of what lies behind
+  // (plane_parallel() above) and the adding method's 1 / (1 - R a). T read from the two renders
+  // must be what the plane-parallel layer passes of a beam from the Sun's height
+  // (delta-Eddington, as it reflects it: optics_test holds both to exact transport). Tolerance
+  // 0.005: the glint (exp(-tan^2 30 / sigma^2) ~ 2e-4 of the sea's radiance) and float
+  // radiances. Fault caught: the two-stream slab's diffuse transmittance whatever the Sun (T
+  // 0.048 lower), which with the beam's reflectance R_b lost or made light.
+  const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
+  const Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
+  RenderParams params;
+  params.bands = {"vis"};
+  params.atmosphere = false;
+  const double mu0 = 0.5;
+  earth::SunPosition sun{};
+  sun.direction_ecef = mu0 * up + std::sqrt(1 - mu0 * mu0) * east;
+  sun.distance_au = 1;
+  double radiance[2];
+  for (int i = 0; i < 2; ++i) {
+    clouds::CloudScene scene;
+    scene.shells.push_back(layered_shell(1.0, 0.0, i == 0 ? 1.0f : 0.0f, 0.85, 0.01));
+    radiance[i] = render(scene, sensor, sun, params).radiance[0][0];
+  }
+  const optics::Band& b = optics::band("vis");
+  const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
+  const double tau = props.extinction_per_m * 2000.0, omega = props.single_scattering_albedo;
+  ASSERT_NEAR(tau, 3, 1e-9);
+  const optics::BeamSlab beam = optics::delta_eddington_beam(tau, omega, 0.85, mu0);
+  const Slab view = plane_parallel(tau, omega, 0.85, 1.0);
+  const double e_mu0 = b.solar_irradiance * mu0, sea_albedo = M_PI * radiance[1] / e_mu0;
+  const double passed = (radiance[0] - beam.reflectance * e_mu0 / M_PI) * (1 - view.reflectance * sea_albedo) /
+                        (view.transmitted * radiance[1]);
+  const double expected = beam.diffuse_transmittance + beam.direct_transmittance;
+  std::printf("[ measured ] sunlight passed to the sea %.4f, the layer's %.4f (sea albedo %.4f)\n", passed, expected,
+              sea_albedo);
+  EXPECT_NEAR(passed, expected, 0.005);
+}
+
 TEST(Renderer, WhatLiesBehindASlantLayerIsSeenAsThroughAPlaneParallelOne) {
   // What lies behind a cloud reaches the sensor through the plane-parallel layer of the same
   // vertical optical depth: the direct beam exp(-tau' / mu) (Beer-Lambert along the ray, eq.
