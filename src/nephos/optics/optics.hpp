@@ -1,8 +1,8 @@
 #pragma once
 // Radiometry and cloud optics for the global renderer (the fractal-cloud paper, section 2.3):
 // Planck radiance and its inverse, sensor bands, the 1976 U.S. Standard Atmosphere temperature,
-// the two-stream slab relations (2a)-(4b), the delta-Eddington reflectance to a beam, Beer's
-// law, and cloud optical properties.
+// the two-stream slab relations (2a)-(4b), the delta-Eddington slab lit by a beam, Beer's law,
+// and cloud optical properties.
 #include <cmath>
 #include <cstddef>
 #include <string>

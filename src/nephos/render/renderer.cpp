@@ -645,9 +645,9 @@ struct RenderContext {
   const optics::Band& vis = optics::band("vis");     ///< the band of the reported optical depth
   std::vector<optics::OpticalProperties> vis_props;  ///< [type], the types' own, for the optical depth
   std::vector<double> asymmetry;                     ///< [type], the types' own
-  /// [type][band] the single-scattering albedo of the type's own optics, the similarity-scaled
-  /// extinction factor (1 - omega g) and the scaled albedo, for the shadows it casts.
-  std::vector<std::array<double, optics::max_band_count>> shadow_albedo, shadow_scale, shadow_omega;
+  /// [type][band] the single-scattering albedo of the type's own optics and its
+  /// similarity-scaled extinction factor (1 - omega g), for the shadows it casts.
+  std::vector<std::array<double, optics::max_band_count>> shadow_albedo, shadow_scale;
   /// [node * shells + shell] the vertical visible optical depth of each shell's clouds at each
   /// weather node (EarthView's) from the weather's condensate: the layer's path over the cloud's
   /// share (the weather's own masks, not carried), as microphysics() gives its elements; with no
@@ -667,8 +667,7 @@ struct RenderContext {
     sun_dir = sun.direction_ecef;
     sun_scale = 1.0 / (sun.distance_au * sun.distance_au);
     const std::size_t ns = scene.shells.size();
-    vis_props.resize(ns), asymmetry.resize(ns), shadow_albedo.resize(ns), shadow_scale.resize(ns),
-        shadow_omega.resize(ns);
+    vis_props.resize(ns), asymmetry.resize(ns), shadow_albedo.resize(ns), shadow_scale.resize(ns);
     for (std::size_t si = 0; si < ns; ++si) {
       const clouds::CloudTypeParams& cp = scene.shells[si].params();
       asymmetry[si] = cp.asymmetry;
@@ -677,8 +676,7 @@ struct RenderContext {
         const double omega =
             optics::cloud_optics(cp.phase, cp.water_content_g_m3, cp.effective_radius_um, *tables.bands[b])
                 .single_scattering_albedo;
-        const optics::SlabOptics so = optics::similarity_scaled(1.0, omega, cp.asymmetry);
-        shadow_albedo[si][b] = omega, shadow_scale[si][b] = so.tau, shadow_omega[si][b] = so.omega;
+        shadow_albedo[si][b] = omega, shadow_scale[si][b] = optics::similarity_scaled(1.0, omega, cp.asymmetry).tau;
       }
     }
     for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());

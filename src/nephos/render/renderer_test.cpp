@@ -216,11 +216,11 @@ TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) 
   // A homogeneous layer of droplets (g 0.85), 0.1 g/m^3 over 2 km: visible optical depth 30.
   // Seen from above in the visible, no atmosphere, its reflectance factor pi L / (E mu0) is the
   // plane-parallel layer's reflectance to a beam from the Sun's height (delta-Eddington, which
-  // optics_test holds to exact transport within 0.04), not one reflectance for every Sun:
+  // optics_test holds to exact transport within 0.045), not one reflectance for every Sun:
   // higher under a low Sun. The sea below adds what reaches it and comes back through the
-  // cloud, at most T^2 a ~ 0.19^2 x 0.06 ~ 0.003 (its direct sunlight and glint are in the
-  // cloud's shadow, exp(-4.5 / mu0) < 0.004): bound 0.005. Fault caught: the hemispheric
-  // reflectance for every Sun (0.82 here).
+  // cloud, at most T_sun T_view a ~ 0.3 x 0.19 x 0.06 ~ 0.0035 (its direct sunlight and glint
+  // are in the cloud's shadow, exp(-4.5 / mu0) < 0.004): bound 0.005. Fault caught: the
+  // hemispheric reflectance for every Sun (0.82 here).
   clouds::CloudScene scene;
   scene.shells.push_back(layered_shell(1.0, 0.0, 1.0f, 0.85, 0.1));
   const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
@@ -261,7 +261,7 @@ TEST(Renderer, TheSunlightUnderALayerIsWhatAPlaneParallelCloudPasses) {
   // (delta-Eddington, as it reflects it: optics_test holds both to exact transport). Tolerance
   // 0.005: the glint (exp(-tan^2 30 / sigma^2) ~ 2e-4 of the sea's radiance) and float
   // radiances. Fault caught: the two-stream slab's diffuse transmittance whatever the Sun (T
-  // 0.048 lower), which with the beam's reflectance R_b lost or made light.
+  // 0.048 lower), which with the beam's reflectance R_b loses light.
   const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
   const Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
   RenderParams params;
