@@ -212,6 +212,21 @@ TEST(Renderer, ThermalRadianceOfAHomogeneousLayerAtNight) {
   EXPECT_LT(emissivity[1], emissivity[0]);
 }
 
+// The visible radiance [W m^-2 sr^-1 um^-1] of a scene of one shell seen from 700 km straight
+// above (0, 0), no atmosphere, the Sun at cosine of zenith mu0 towards the east.
+double sunlit_nadir_vis_radiance(CloudShell shell, double mu0) {
+  clouds::CloudScene scene;
+  scene.shells.push_back(std::move(shell));
+  const earth::Vec3 up = earth::unit_from_latlon(0, 0);
+  earth::SunPosition sun{};
+  sun.direction_ecef = mu0 * up + std::sqrt(1 - mu0 * mu0) * earth::local_east(up);
+  sun.distance_au = 1;
+  RenderParams params;
+  params.bands = {"vis"};
+  params.atmosphere = false;
+  return render(scene, Sensor::nadir(0, 0, 700e3, 0.01, 1, 1), sun, params).radiance[0][0];
+}
+
 TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) {
   // A homogeneous layer of droplets (g 0.85), 0.1 g/m^3 over 2 km: visible optical depth 30.
   // Seen from above in the visible, no atmosphere, its reflectance factor pi L / (E mu0) is the
@@ -221,13 +236,6 @@ TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) 
   // cloud, at most T_sun T_view a ~ 0.3 x 0.19 x 0.06 ~ 0.0035 (its direct sunlight and glint
   // are in the cloud's shadow, exp(-4.5 / mu0) < 0.004): bound 0.005. Fault caught: the
   // hemispheric reflectance for every Sun (0.82 here).
-  clouds::CloudScene scene;
-  scene.shells.push_back(layered_shell(1.0, 0.0, 1.0f, 0.85, 0.1));
-  const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
-  const Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
-  RenderParams params;
-  params.bands = {"vis"};
-  params.atmosphere = false;
   const optics::Band& b = optics::band("vis");
   const auto props = optics::cloud_optics(optics::Phase::water, 0.1, 10, b);
   const double tau = props.extinction_per_m * 2000.0, omega = props.single_scattering_albedo;
@@ -236,13 +244,10 @@ TEST(Renderer, ASunlitLayerReflectsTheBeamAsAPlaneParallelCloudAtTheSunsHeight) 
   const double mu0s[2] = {0.8, 0.5};
   for (int i = 0; i < 2; ++i) {
     const double mu0 = mu0s[i];
-    earth::SunPosition sun{};
-    sun.direction_ecef = mu0 * up + std::sqrt(1 - mu0 * mu0) * east;
-    sun.distance_au = 1;
-    const RenderImage img = render(scene, sensor, sun, params);
     double expected = 0;
     optics::delta_eddington_beam_reflectances(&tau, &omega, 0.85, mu0, 1, &expected);
-    factor[i] = M_PI * img.radiance[0][0] / (b.solar_irradiance * mu0);
+    factor[i] =
+        M_PI * sunlit_nadir_vis_radiance(layered_shell(1.0, 0.0, 1.0f, 0.85, 0.1), mu0) / (b.solar_irradiance * mu0);
     std::printf("[ measured ] mu0 %.1f: pi L / (E mu0) %.4f, delta-Eddington %.4f\n", mu0, factor[i], expected);
     EXPECT_NEAR(factor[i], expected, 0.005) << "mu0 " << mu0;
   }
@@ -262,21 +267,10 @@ TEST(Renderer, TheSunlightUnderALayerIsWhatAPlaneParallelCloudPasses) {
   // 0.005: the glint (exp(-tan^2 30 / sigma^2) ~ 2e-4 of the sea's radiance) and float
   // radiances. Fault caught: the two-stream slab's diffuse transmittance whatever the Sun (T
   // 0.048 lower), which with the beam's reflectance R_b loses light.
-  const earth::Vec3 up = earth::unit_from_latlon(0, 0), east = earth::local_east(up);
-  const Sensor sensor = Sensor::nadir(0, 0, 700e3, 0.01, 1, 1);
-  RenderParams params;
-  params.bands = {"vis"};
-  params.atmosphere = false;
   const double mu0 = 0.5;
-  earth::SunPosition sun{};
-  sun.direction_ecef = mu0 * up + std::sqrt(1 - mu0 * mu0) * east;
-  sun.distance_au = 1;
   double radiance[2];
-  for (int i = 0; i < 2; ++i) {
-    clouds::CloudScene scene;
-    scene.shells.push_back(layered_shell(1.0, 0.0, i == 0 ? 1.0f : 0.0f, 0.85, 0.01));
-    radiance[i] = render(scene, sensor, sun, params).radiance[0][0];
-  }
+  for (int i = 0; i < 2; ++i)
+    radiance[i] = sunlit_nadir_vis_radiance(layered_shell(1.0, 0.0, i == 0 ? 1.0f : 0.0f, 0.85, 0.01), mu0);
   const optics::Band& b = optics::band("vis");
   const auto props = optics::cloud_optics(optics::Phase::water, 0.01, 10, b);
   const double tau = props.extinction_per_m * 2000.0, omega = props.single_scattering_albedo;
