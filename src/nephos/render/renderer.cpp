@@ -166,6 +166,9 @@ struct MarchScratch {
   std::vector<int> k_max;
   std::vector<earth::Vec3> pts, grads;
   std::vector<double> vals;
+  // The crossings' points, footprints and gradients (write_hits).
+  std::vector<earth::Vec3> cross_pts, cross_grads;
+  std::vector<double> cross_footprint;
   // Each ray's altitude window as squared radii [m^2] (clouds::window_squared_radii).
   std::vector<double> r2_lo, r2_hi;
   void resize_rays(std::size_t n) {
@@ -470,16 +473,28 @@ std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3&
 
 // Stage 5: the nh hits with their surface normals from the CF gradient
 // (CloudShell::value_and_gradient: the textures' own gradients, the smooth parts by forward
-// differences with h ~ two fine voxels).
+// differences with h ~ two fine voxels). A partial hit's normal is not the gradient's (below):
+// only the crossings' gradients are found, compacted (each point's gradient is its own).
 void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double spread, std::size_t nh, MarchScratch& w,
                 ShellHit* hits) {
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
+  // A hit whose function crosses the threshold; else (filtered) a partial hit.
+  auto crossing = [&](std::size_t j) { return !(spread > 0) || w.u_max[j] > 0; };
+  std::size_t nc = 0;  // the crossings, compacted into w.act
+  w.act.resize(nh);
   for (std::size_t j = 0; j < nh; ++j) {
     const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
     w.pts[j] = w.point(o, j, s_hit);
     w.footprint[j] = spread * w.t_at(j, s_hit);
+    w.act[nc] = static_cast<std::uint32_t>(j);
+    nc += crossing(j);
   }
-  shell.value_and_gradient(w.pts.data(), nh, h, nullptr, w.grads.data(), spread > 0 ? w.footprint.data() : nullptr);
+  w.cross_pts.resize(nc), w.cross_footprint.resize(nc), w.cross_grads.resize(nc);
+  for (std::size_t a = 0; a < nc; ++a) w.cross_pts[a] = w.pts[w.act[a]], w.cross_footprint[a] = w.footprint[w.act[a]];
+  shell.value_and_gradient(w.cross_pts.data(), nc, h, nullptr, w.cross_grads.data(),
+                           spread > 0 ? w.cross_footprint.data() : nullptr);
+  std::fill(w.grads.begin(), w.grads.begin() + static_cast<std::ptrdiff_t>(nh), earth::Vec3{});
+  for (std::size_t a = 0; a < nc; ++a) w.grads[w.act[a]] = w.cross_grads[a];
   for (std::size_t j = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
     ShellHit& hit = hits[w.idx[j]];
@@ -502,7 +517,7 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // at the ray's largest u, where the gradient is across the ray. The sub-pixel clouds' visible
     // surface, area-weighted, faces the sensor (Cauchy: the visible normals of a closed surface
     // sum to its projected area along the view): their mean normal is -dir.
-    if (spread > 0 && !(w.u_max[j] > 0)) hit.normal = -dir, hit.coherence = 0;
+    if (!crossing(j)) hit.normal = -dir, hit.coherence = 0;
   }
 }
 
@@ -1185,8 +1200,9 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
 }
 
 // A band's transmittance of the clouds in front below which what lies behind them is left out
-// (< 1e-4 of the ground's radiance), and the ground's shadows are not looked for where every
-// band's is: so that whether a band sees the ground does not depend on the others.
+// (< 1e-4 of the ground's radiance); where every band's is, the ground or sky behind is not
+// found, nor its shadows looked for: so that whether a band sees the ground does not depend on
+// the others.
 constexpr double ground_seen_min = 1e-4;
 
 // The band's rows into the image: each pixel's cloud layers, then what lies behind them, the
@@ -1194,6 +1210,11 @@ constexpr double ground_seen_min = 1e-4;
 void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
   const int w = c.sensor.width;
   const std::size_t nb = c.band_count(), mb = optics::max_band_count;
+  auto behind_seen = [nb](const double* trans) {  // some band's clouds pass more than ground_seen_min
+    double seen = 0;
+    for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[b]);
+    return seen > ground_seen_min;
+  };
 #pragma omp parallel
   {
     std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size()),
@@ -1214,9 +1235,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         // The ground points the Sun lights and that show through the clouds: their shadows.
         if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
         const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[x];
-        double seen = 0;
-        for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[xo + b]);
-        if (seen > ground_seen_min && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
+        if (behind_seen(&trans[xo]) && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
       }
       if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), c.scene.shells.size(), lengths);
       std::size_t next_lit = 0;
@@ -1226,7 +1245,8 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const auto xo = static_cast<std::size_t>(x) * mb;
         const earth::Vec3& d = dirs[x];
         std::array<double, optics::max_band_count> bg{}, bg_path{}, bg_refl{};
-        if (std::isfinite(rb.t_earth[bpx])) {
+        const bool seen = behind_seen(&trans[xo]);  // else what lies behind is left out: not found
+        if (seen && std::isfinite(rb.t_earth[bpx])) {
           const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
           const earth::Geodetic g = earth::geodetic(q);
           if (!(img.cloud_fraction[px] > 0)) {
@@ -1236,7 +1256,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
           const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
           ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path, bg_refl);
           next_lit += shadowed;
-        } else {
+        } else if (seen) {
           sky_radiance(c, d, bg);
         }
         for (std::size_t b = 0; b < nb; ++b) {  // the ground, as a layer of T = 0 under the clouds
