@@ -164,7 +164,7 @@ struct MarchScratch {
   std::vector<clouds::PathCoverage> paths;  // filtered: each ray's chance of meeting cloud
   std::vector<double> coverage, shown;      // the cone's share in cloud, and the share a hit reports
   std::vector<int> k_max;
-  std::vector<earth::Vec3> pts, grads;
+  std::vector<earth::Vec3> pts;
   std::vector<double> vals;
   // The crossings' points, footprints and gradients (write_hits).
   std::vector<earth::Vec3> cross_pts, cross_grads;
@@ -194,7 +194,6 @@ struct MarchScratch {
       v->resize(n);
     k_hit.resize(n), k_max.resize(n);
     pts.resize(n);
-    grads.resize(n);
     vals.resize(n);
   }
   // The ray parameter and the point at path length s of marched ray j (Path::t_at).
@@ -493,9 +492,7 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
   for (std::size_t a = 0; a < nc; ++a) w.cross_pts[a] = w.pts[w.act[a]], w.cross_footprint[a] = w.footprint[w.act[a]];
   shell.value_and_gradient(w.cross_pts.data(), nc, h, nullptr, w.cross_grads.data(),
                            spread > 0 ? w.cross_footprint.data() : nullptr);
-  std::fill(w.grads.begin(), w.grads.begin() + static_cast<std::ptrdiff_t>(nh), earth::Vec3{});
-  for (std::size_t a = 0; a < nc; ++a) w.grads[w.act[a]] = w.cross_grads[a];
-  for (std::size_t j = 0; j < nh; ++j) {
+  for (std::size_t j = 0, a = 0; j < nh; ++j) {
     const earth::Vec3 dir{w.dx[j], w.dy[j], w.dz[j]};
     ShellHit& hit = hits[w.idx[j]];
     const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
@@ -505,7 +502,7 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // Depth: from the surface to the end of the crossing step, then the steps after it. Filtered:
     // the expected length of cloud along the path over the chance that the ray meets any.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
-    const earth::Vec3& g = w.grads[j];
+    const earth::Vec3 g = crossing(j) ? w.cross_grads[a++] : earth::Vec3{};  // the crossings in order
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
     if (spread > 0) {
@@ -1222,6 +1219,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
     std::vector<int> lit;
     std::vector<earth::Vec3> lit_points;
     std::vector<CloudLengths> lengths;
+    std::vector<std::uint8_t> seen(static_cast<std::size_t>(w));  // some band sees what lies behind
 #pragma omp for schedule(dynamic, 1)
     for (int y = rb.y0; y < rb.y1; ++y) {
       const earth::Vec3* dirs = rb.row_dirs(y, w);
@@ -1232,10 +1230,11 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const auto xo = static_cast<std::size_t>(x) * mb;
         img.cloud_optical_depth[px] =
             composite_layers(c, rb, bpx, px, dirs[x], img, &rad[xo], &trans[xo], &path_above[xo], &refl_above[xo]);
+        seen[static_cast<std::size_t>(x)] = behind_seen(&trans[xo]);
         // The ground points the Sun lights and that show through the clouds: their shadows.
         if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
         const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[x];
-        if (behind_seen(&trans[xo]) && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
+        if (seen[static_cast<std::size_t>(x)] && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
       }
       if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), c.scene.shells.size(), lengths);
       std::size_t next_lit = 0;
@@ -1245,8 +1244,9 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
         const auto xo = static_cast<std::size_t>(x) * mb;
         const earth::Vec3& d = dirs[x];
         std::array<double, optics::max_band_count> bg{}, bg_path{}, bg_refl{};
-        const bool seen = behind_seen(&trans[xo]);  // else what lies behind is left out: not found
-        if (seen && std::isfinite(rb.t_earth[bpx])) {
+        // What no band sees is left out (below): not found.
+        const bool found = seen[static_cast<std::size_t>(x)] != 0;
+        if (found && std::isfinite(rb.t_earth[bpx])) {
           const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
           const earth::Geodetic g = earth::geodetic(q);
           if (!(img.cloud_fraction[px] > 0)) {
@@ -1256,7 +1256,7 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
           const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
           ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path, bg_refl);
           next_lit += shadowed;
-        } else if (seen) {
+        } else if (found) {
           sky_radiance(c, d, bg);
         }
         for (std::size_t b = 0; b < nb; ++b) {  // the ground, as a layer of T = 0 under the clouds
