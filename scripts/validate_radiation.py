@@ -27,9 +27,9 @@ its own clouds: a reference that owes nothing to nephos. It also reports the sam
 left where they are at the valid time (clouds_fixed_at_valid_time), the long-wave bias by the
 cells' view zenith (olr_by_view_zenith), the long wave without the limb correction
 (olr_as_seen, olr_as_seen_by_view_zenith), with each cell seen from above
-(olr_nadir_views: nadir_window_olr), and (gfs_cover_fits) how well
-GFS's own 6-hour and valid-time layer cloud covers explain the same fluxes in a least-squares fit
-(docs/VALIDATION.md).
+(olr_nadir_views: nadir_window_olr), (gfs_cover_fits) how well GFS's own 6-hour and valid-time
+layer cloud covers explain the same fluxes in a least-squares fit, and (where_covers_held) both
+on the cells whose GFS covers changed little within the window (docs/VALIDATION.md).
 
 Usage: PYTHONPATH=build/python scripts/validate_radiation.py WEATHER OUTDIR [--size N] [--texture N]
 Writes OUTDIR/summary.json and OUTDIR/{olr,albedo}.png (nephos left, GFS right).
@@ -56,6 +56,7 @@ SOLAR_WEIGHTS = np.array([0.30, 0.22, 0.26, 0.06, 0.09, 0.07])
 GEO_LON, GEO_RADIUS_M, EARTH_RADIUS_M = -75.2, 42164.0e3, 6371008.8
 MAX_VZA = 70.0  # deg: cells the sensor sees at most this far from nadir
 WINDOW_INSTANTS_H = (5.0, 3.0, 1.0)  # h before the valid time: the middles of the 6-hour window's thirds
+COVERS_HELD = (0.5, 0.2)  # where_covers_held: the largest change of a layer's cover within the window
 # Nadir views for the long wave (nadir_window_olr): sub-points 25 deg apart, seen from the
 # geostationary distance through a field of view that reaches 20 deg of arc around each
 NADIR_STEP_DEG, NADIR_ALTITUDE_KM, NADIR_FOV_DEG = 25.0, 35786.0, 8.0
@@ -140,6 +141,28 @@ def instantaneous_layer_cover(w):
             top = np.where(c > 0.01, t[k], top)
         cover[layer], top_t[layer] = 1 - clear * (1 - run), top
     return cover, top_t
+
+
+def cover_change(w):
+    """The largest change of a GFS layer's cloud cover within the 6-hour window on each cell: the
+    largest |6-hour mean - valid time's| of the low, middle and high covers (instantaneous_layer_cover)."""
+    now, _ = instantaneous_layer_cover(w)
+    return np.maximum.reduce([np.abs(w.field("tcc", f"{layer}CloudLayer") - now[layer]) for layer in now])
+
+
+def where_covers_held(w, olr, gfs_olr, albedo, gfs_albedo, area):
+    """nephos's fluxes on the cells whose GFS layer covers changed by less than COVERS_HELD within
+    the window (cover_change), where the valid time's clouds stand for the 6-hour mean's, beside
+    what GFS's own covers explain on the same cells (reference_fits)."""
+    change = cover_change(w)
+    rows = []
+    for held in COVERS_HELD:
+        o, a = np.where(change < held, olr, np.nan), np.where(change < held, albedo, np.nan)
+        rows.append({"largest_layer_cover_change": held, "olr": weighted_stats(o, gfs_olr, area),
+                     "albedo": weighted_stats(a, gfs_albedo, area),
+                     "gfs_cover_fits": reference_fits(w, gfs_olr, gfs_albedo, np.isfinite(o) & np.isfinite(gfs_olr),
+                                                      np.isfinite(a) & np.isfinite(gfs_albedo), area)})
+    return rows
 
 
 def fit_correlation(target, predictors, cells, area):
@@ -438,6 +461,7 @@ def main():
                                        "albedo": weighted_stats(fixed_alb, gfs_albedo, area)},
         "gfs_cover_fits": reference_fits(w, gfs_olr, gfs_albedo, np.isfinite(olr_grid) & np.isfinite(gfs_olr),
                                          np.isfinite(alb_grid) & np.isfinite(gfs_albedo), area),
+        "where_covers_held": where_covers_held(w, olr_grid, gfs_olr, alb_grid, gfs_albedo, area),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     rows = np.where((lats >= -70) & (lats <= 70))[0]
