@@ -1138,6 +1138,18 @@ class FullDisk(unittest.TestCase):
 
 
 class Usage(unittest.TestCase):
+    def test_command_line_errors_are_one_line(self):
+        # What the command-line parser itself refuses (a value of the wrong type, an option given
+        # twice, an unknown option, a missing value or subcommand) reads as every other input
+        # error: one line naming the option, exit 2 (CLI11's own message adds a second line).
+        for args, needle in ((("render", "--samples", "inf"), "--samples"),
+                             (("render", "--texture", "16", "--texture", "8"), "--texture"),
+                             (("masks", "--no-such-option"), "--no-such-option"), (("render", "--types"), "--types"),
+                             (("--threads", "-3", "masks"), "--threads"), ((), "subcommand")):
+            r = run(*args)
+            Info.assert_input_error(self, r, needle, "--help")
+            self.assertTrue(r.stderr.startswith("nephos: error: "), r.stderr)
+
     def test_help_and_bad_option(self):
         self.assertEqual(run("--help").returncode, 0)
         r = run("masks", "--no-such-option")

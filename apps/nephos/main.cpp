@@ -5,6 +5,7 @@
 #include <hdf5.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <iostream>
 #include <new>
 #include <set>
@@ -108,8 +109,12 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : exit_input_error;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line, as every other input error (CLI11's own adds a second).
+    std::string message = e.what();
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    report("error", message + " (--help lists the options)");
+    return exit_input_error;
   }
 
   const app::Command* chosen = nullptr;

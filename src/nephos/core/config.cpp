@@ -60,8 +60,27 @@ void ParamDict::fail(std::string_view key, const std::string& message) const {
                               .line = n ? static_cast<int>(n->source().begin.line) : 0});
 }
 
+namespace {
+
+// What a TOML value is, for an error that says what it expected instead.
+std::string describe(const toml::node& n) {
+  if (const auto s = n.value_exact<std::string>()) {
+    const std::string& text = *s;
+    return fmt::format("the string \"{}\"", text.size() > 40 ? text.substr(0, 40) + "..." : text);
+  }
+  if (const auto b = n.value_exact<bool>()) return *b ? "true" : "false";
+  if (const auto i = n.value_exact<std::int64_t>()) return fmt::format("{}", *i);
+  if (const auto d = n.value_exact<double>()) return fmt::format("{:g}", *d);
+  if (n.is_array()) return "an array";
+  if (n.is_table()) return "a table";
+  return "a date or time";
+}
+
+}  // namespace
+
 void ParamDict::type_error(std::string_view key, const char* expected) const {
-  fail(key, std::string("expected ") + expected);
+  const toml::node* n = table_->get(key);
+  fail(key, std::string("expected ") + expected + (n ? ", got " + describe(*n) : std::string()));
 }
 
 bool ParamDict::has(std::string_view key) const { return table_->contains(key); }

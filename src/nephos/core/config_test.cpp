@@ -41,15 +41,23 @@ TEST(ParamDict, UnreadTableIsReported) {
   EXPECT_THROW(d.check_unused(), ConfigError);
 }
 
-TEST(ParamDict, WrongTypeNamesKeyAndExpectation) {
-  auto d = ParamDict::from_string("a = 'text'\n", "c.toml");
-  try {
-    d.get("a", 0.0);
-    FAIL();
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.context().key, "a");
-    EXPECT_NE(std::string(e.what()).find("expected a number"), std::string::npos);
-  }
+// A value of the wrong type: the error names the key, what was expected and what was found.
+TEST(ParamDict, WrongTypeNamesKeyExpectationAndValue) {
+  auto d = ParamDict::from_string("a = 'text'\nb = 2.5\nc = nan\nd = [1, 2]\n", "c.toml");
+  auto message = [&](auto get) -> std::string {
+    try {
+      get();
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const std::string a = message([&] { d.get("a", 0.0); });
+  EXPECT_NE(a.find("key 'a'"), std::string::npos) << a;
+  EXPECT_NE(a.find("expected a number (not nan), got the string \"text\""), std::string::npos) << a;
+  EXPECT_NE(message([&] { d.get("b", 1); }).find("expected an integer, got 2.5"), std::string::npos);
+  EXPECT_NE(message([&] { d.get("c", 0.0); }).find("got nan"), std::string::npos);
+  EXPECT_NE(message([&] { d.get("d", false); }).find("expected true or false, got an array"), std::string::npos);
 }
 
 TEST(ParamDict, NanIsNotANumberButInfinityIsNoBound) {
