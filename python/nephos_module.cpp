@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <fmt/format.h>
@@ -67,6 +68,14 @@ py::array_t<T> to_array(std::vector<T>&& values, std::vector<py::ssize_t> shape)
   py::capsule owner(owned.get(), [](void* p) { delete static_cast<std::vector<T>*>(p); });
   owned.release();  // the capsule owns it now
   return py::array_t<T>(shape, data, owner);
+}
+
+// Names from a keyword argument: a list, or one string, comma-separated as on the command line
+// ("vis,lwir", "all").
+using NameList = std::variant<std::vector<std::string>, std::string>;
+std::vector<std::string> names(const NameList& v, const std::string& key) {
+  if (const auto* s = std::get_if<std::string>(&v)) return split_list(*s, key);
+  return std::get<std::vector<std::string>>(v);
 }
 
 class Weather {
@@ -153,7 +162,7 @@ class Weather {
 // ViewRequest, so that errors name the keyword).
 class Scene {
  public:
-  Scene(const Weather& w, const std::optional<std::vector<std::string>>& types, int texture, std::uint64_t seed,
+  Scene(const Weather& w, const std::optional<NameList>& types, int texture, std::uint64_t seed,
         const std::optional<std::string>& config, std::optional<double> displace_hours)
       : scene_(make(w, types, texture, seed, config, displace_hours)) {}
 
@@ -162,13 +171,13 @@ class Scene {
     scene_->advance(hours, "hours");
   }
 
-  py::object render(const std::string& sensor, std::pair<int, int> size, const std::vector<std::string>& bands,
-                    int steps, const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere,
+  py::object render(const std::string& sensor, std::pair<int, int> size, const NameList& bands, int steps,
+                    const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere,
                     bool shadows, bool filter, const std::string& scene, int abi_step, bool as_dict) const {
     render::ViewRequest view;
     view.sensor = sensor;
     std::tie(view.width, view.height) = size;
-    view.bands = bands;
+    view.bands = names(bands, "bands");
     view.steps = steps;
     view.samples = samples;
     view.sample_grid = sample_grid;
@@ -196,14 +205,13 @@ class Scene {
   }
 
  private:
-  static std::unique_ptr<render::RenderScene> make(const Weather& w,
-                                                   const std::optional<std::vector<std::string>>& types, int texture,
+  static std::unique_ptr<render::RenderScene> make(const Weather& w, const std::optional<NameList>& types, int texture,
                                                    std::uint64_t seed, const std::optional<std::string>& config,
                                                    std::optional<double> displace_hours) {
     render::SceneRequest r;
     if (types) {
       r.types.clear();
-      for (const auto& t : *types) r.types.push_back(weather::cloud_type_from_name(t));
+      for (const auto& t : names(*types, "types")) r.types.push_back(weather::cloud_type_from_name(t));
     }
     r.texture = texture;
     r.displace_hours = displace_hours;
@@ -621,11 +629,12 @@ void def_weather_and_scene(py::module_& m) {
   py::class_<Scene>(m, "Scene",
                     "Clouds of one or more types over the whole Earth from a Weather: fractal textures, weather masks "
                     "and wind displacement, built once and rendered from any sensor.")
-      .def(py::init<const Weather&, const std::optional<std::vector<std::string>>&, int, std::uint64_t,
+      .def(py::init<const Weather&, const std::optional<NameList>&, int, std::uint64_t,
                     const std::optional<std::string>&, std::optional<double>>(),
            py::arg("weather"), py::arg("types") = py::none(), py::arg("texture") = 0, py::arg("seed") = 1,
            py::arg("config") = py::none(), py::arg("displace_hours") = py::none(),
-           "types: cloud type names (default all four); texture: fractal texture edge in voxels (0: the "
+           "types: cloud type names, a list or one comma-separated string (default all four); texture: fractal texture "
+           "edge in voxels (0: the "
            "configuration's, 256 by default); config: a TOML file as for `nephos render --config`; "
            "displace_hours: the wind displacement of every fractal [h].")
       .def_property_readonly("types", &Scene::types)
@@ -637,7 +646,8 @@ void def_weather_and_scene(py::module_& m) {
            py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true, py::arg("scene") = "full",
            py::arg("abi_step") = 1, py::arg("as_dict") = false,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
-           "['all']; atmosphere, shadows: False leaves them out; filter: False renders point samples, detail finer "
+           "'all', as a list or one comma-separated string; atmosphere, shadows: False leaves them out; filter: False "
+           "renders point samples, detail finer "
            "than a pixel unfiltered): a dict of (height, width) arrays radiance_<band> "
            "[W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "

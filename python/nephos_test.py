@@ -116,6 +116,19 @@ class Render(unittest.TestCase):
             self.assertIsNotNone(img[name].base, name)
             self.assertTrue(img[name].flags.writeable and img[name].flags.c_contiguous, name)
 
+    def test_names_in_one_string_as_on_the_command_line(self):
+        # bands and types also take one comma-separated string, as --bands and --types do: the
+        # same scene and the same image as the lists give; "all" alone means every band.
+        a = nephos.Scene(self.weather, types="low_stratus,cirrus", texture=16)
+        b = nephos.Scene(self.weather, types=["low_stratus", "cirrus"], texture=16)
+        self.assertEqual(a.types, ["low_stratus", "cirrus"])
+        ia, ib = a.render(size=(24, 16), bands="vis,lwir"), b.render(size=(24, 16), bands=["vis", "lwir"])
+        for name in ("radiance_vis", "brightness_temperature_lwir", "cloud_type"):
+            self.assertTrue(np.array_equal(ia[name], ib[name], equal_nan=name != "cloud_type"), name)
+        self.assertEqual(len([k for k in a.render(size=(8, 8), bands="all") if k.startswith("radiance_")]), 16)
+        with self.assertRaisesRegex(ValueError, "'bands': empty list"):
+            a.render(size=(8, 8), bands=",")
+
     def test_the_band_table(self):
         # The 16 GOES-16 ABI bands Scene.render takes, with what a sensor model needs of them.
         bands = nephos.bands()
