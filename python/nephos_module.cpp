@@ -633,10 +633,9 @@ void def_weather_and_scene(py::module_& m) {
                     const std::optional<std::string>&, std::optional<double>>(),
            py::arg("weather"), py::arg("types") = py::none(), py::arg("texture") = 0, py::arg("seed") = 1,
            py::arg("config") = py::none(), py::arg("displace_hours") = py::none(),
-           "types: cloud type names, a list or one comma-separated string (default all four); texture: fractal texture "
-           "edge in voxels (0: the "
-           "configuration's, 256 by default); config: a TOML file as for `nephos render --config`; "
-           "displace_hours: the wind displacement of every fractal [h].")
+           "types: cloud type names, a list or one comma-separated string (default all four); texture: fractal "
+           "texture edge in voxels (0: the configuration's, 256 by default); config: a TOML file as for `nephos "
+           "render --config`; displace_hours: the wind displacement of every fractal [h].")
       .def_property_readonly("types", &Scene::types)
       .def("advance", &Scene::advance, py::arg("hours"),
            "Moves the clouds with the wind by `hours` (frame-to-frame propagation).")
@@ -647,9 +646,9 @@ void def_weather_and_scene(py::module_& m) {
            py::arg("abi_step") = 1, py::arg("as_dict") = false,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
            "'all', as a list or one comma-separated string; atmosphere, shadows: False leaves them out; filter: False "
-           "renders point samples, detail finer "
-           "than a pixel unfiltered): a dict of (height, width) arrays radiance_<band> "
-           "[W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, cloud_top_altitude [m], "
+           "renders point samples, detail finer than a pixel unfiltered): a dict of (height, width) arrays "
+           "radiance_<band> [W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, "
+           "cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
            "'abi:west', 'abi:LON' (the GOES-R fixed grid: sector `scene` 'full', 'conus' or 'meso:LAT,LON', coarsened "

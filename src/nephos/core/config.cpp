@@ -144,7 +144,7 @@ std::vector<double> ParamDict::get(std::string_view key, const std::vector<doubl
   std::vector<double> out;
   for (const auto& e : *a) {
     auto v = e.value<double>();
-    if (!v || std::isnan(*v)) type_error(key, "an array of numbers (not nan)");
+    if (!v || std::isnan(*v)) fail(key, "expected an array of numbers (not nan), got " + describe(e) + " in it");
     out.push_back(*v);
   }
   return out;

@@ -43,7 +43,7 @@ TEST(ParamDict, UnreadTableIsReported) {
 
 // A value of the wrong type: the error names the key, what was expected and what was found.
 TEST(ParamDict, WrongTypeNamesKeyExpectationAndValue) {
-  auto d = ParamDict::from_string("a = 'text'\nb = 2.5\nc = nan\nd = [1, 2]\n", "c.toml");
+  auto d = ParamDict::from_string("a = 'text'\nb = 2.5\nc = nan\nd = [1, 2]\ne = [1, 'x']\n", "c.toml");
   auto message = [&](auto get) -> std::string {
     try {
       get();
@@ -58,6 +58,7 @@ TEST(ParamDict, WrongTypeNamesKeyExpectationAndValue) {
   EXPECT_NE(message([&] { d.get("b", 1); }).find("expected an integer, got 2.5"), std::string::npos);
   EXPECT_NE(message([&] { d.get("c", 0.0); }).find("got nan"), std::string::npos);
   EXPECT_NE(message([&] { d.get("d", false); }).find("expected true or false, got an array"), std::string::npos);
+  EXPECT_NE(message([&] { d.get("e", std::vector<double>{}); }).find("got the string \"x\" in it"), std::string::npos);
 }
 
 TEST(ParamDict, NanIsNotANumberButInfinityIsNoBound) {
