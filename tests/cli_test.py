@@ -510,13 +510,15 @@ class Lbm(unittest.TestCase):
             # nephos info describes a checkpoint: what it holds and whether it is whole.
             r = run("info", d / "b" / "checkpoint.bin")
             self.assertEqual(r.returncode, 0, r.stderr)
-            for line in ("nephos lbm checkpoint, format CK3", "lattice        16x16x16 (4096 cells)",
-                         "step           6", "storage        fp32", "populations    complete (622792 bytes)"):
+            # 208 header bytes, 2 x 19 x 4096 FP32 populations, a checksum per row: 700 624 bytes.
+            for line in ("nephos lbm checkpoint, format CK4", "lattice        16x16x16 (4096 cells)",
+                         "step           6", "storage        fp32", "populations    complete (700624 bytes)",
+                         "checksums      header verified"):
                 self.assertIn(line, r.stdout)
             self.assertRegex(r.stdout, r"\n    buoyancy +=  ?0\.01\n")
             (d / "cut.bin").write_bytes((d / "b" / "checkpoint.bin").read_bytes()[:100000])
             r = run("info", d / "cut.bin")
-            self.assertIn("TRUNCATED: 100000 of 622792 bytes", r.stdout)
+            self.assertIn("TRUNCATED: 100000 of 700624 bytes", r.stdout)
             r = run("lbm", "--resume", d / "b" / "checkpoint.bin", "--iterations", "12", "--size", "64x48", "--out", d / "c")
             self.assertEqual(r.returncode, 0, r.stderr)
             a, c = netCDF4.Dataset(d / "a" / "lbm.nc"), netCDF4.Dataset(d / "c" / "lbm.nc")

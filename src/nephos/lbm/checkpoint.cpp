@@ -10,6 +10,7 @@
 
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
+#include "nephos/core/hash.hpp"
 #include "nephos/lbm/water_model.hpp"
 
 namespace nephos::lbm {
@@ -24,12 +25,32 @@ void canonical_nans(float* v, std::size_t n) {
 }  // namespace
 
 namespace {
-// Format CK3: parameters stored field by field, so that equal states give equal files, and the
-// population storage (a CK2 file, without it, is read as FP32 storage; CK1 is refused). Populations are written as FP32 whatever the storage: FP16 values convert
-// exactly, so a resumed run continues bit-identically either way.
-constexpr char magic[16] = "NEPHOS-LBM-CK3";
+// Format CK4: parameters stored field by field, so that equal states give equal files, and the
+// population storage; a checksum of the header, and one of each lattice row (nx populations of
+// one component and direction) in a table after the populations, so that a damaged file is
+// refused, not resumed. CK3 files (no checksums) and CK2 files (no storage parameter either:
+// FP32 storage) still load; CK1 is refused. Populations are written as FP32 whatever the
+// storage: FP16 values convert exactly, so a resumed run continues bit-identically either way.
+constexpr char magic[16] = "NEPHOS-LBM-CK4";
+constexpr char magic_ck3[16] = "NEPHOS-LBM-CK3";
 constexpr char magic_ck2[16] = "NEPHOS-LBM-CK2";
 constexpr int param_count = 19;
+
+// A checksum of n 32-bit words: four interleaved lanes of FNV-1a's xor-multiply (each a
+// bijection of its word, so one damaged word always changes it), folded with mix64.
+std::uint64_t checksum(const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  std::uint64_t lane[4] = {0xcbf29ce484222325ULL, 0x84222325cbf29ce4ULL, 0x9e3779b97f4a7c15ULL, 0xc4ceb9fe1a85ec53ULL};
+  constexpr std::uint64_t prime = 0x100000001b3ULL;
+  const std::size_t words = bytes / 4;
+  for (std::size_t k = 0; k < words; ++k) {
+    std::uint32_t w;
+    std::memcpy(&w, p + 4 * k, 4);
+    lane[k % 4] = (lane[k % 4] ^ w) * prime;
+  }
+  for (std::size_t k = 4 * words; k < bytes; ++k) lane[0] = (lane[0] ^ p[k]) * prime;
+  return mix64(mix64(mix64(lane[0] ^ bytes) ^ lane[1]) ^ lane[2]) ^ lane[3];
+}
 
 std::array<double, param_count> params_to_array(const WaterModelParams& p) {
   return {p.rho10,
@@ -70,22 +91,45 @@ struct CheckpointHeader {
   Grid3 grid;
   long step;
   WaterModelParams params;
+  int format = 4;  // 2, 3 or 4 (read_checkpoint_header)
 };
 
-void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
-  os.write(magic, sizeof magic);
-  const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
-  os.write(reinterpret_cast<const char*>(hdr), sizeof hdr);
-  const auto params = params_to_array(h.params);
-  os.write(reinterpret_cast<const char*>(params.data()), sizeof params);
-}
+// The header's bytes before its checksum.
+constexpr std::size_t checked_header_bytes = sizeof magic + 4 * sizeof(std::int64_t) + param_count * sizeof(double);
 // Bytes before the populations; population i of component c at cell `cell` follows at
 // ((c q + i) cells + cell) floats.
-constexpr std::size_t checkpoint_header_bytes = sizeof magic + 4 * sizeof(std::int64_t) + param_count * sizeof(double);
+constexpr std::size_t checkpoint_header_bytes = checked_header_bytes + sizeof(std::uint64_t);
+
+void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
+  char bytes[checked_header_bytes];
+  std::memcpy(bytes, magic, sizeof magic);
+  const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
+  std::memcpy(bytes + sizeof magic, hdr, sizeof hdr);
+  const auto params = params_to_array(h.params);
+  std::memcpy(bytes + sizeof magic + sizeof hdr, params.data(), sizeof params);
+  const std::uint64_t sum = checksum(bytes, sizeof bytes);
+  os.write(bytes, sizeof bytes);
+  os.write(reinterpret_cast<const char*>(&sum), sizeof sum);
+}
 // Where population i of component c of global cell `cell` lies among a checkpoint's populations
 // (in floats from their start), for a lattice of `cells` cells.
 std::size_t checkpoint_value_index(int c, int i, std::size_t cells, std::size_t cell) {
   return (static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * cells + cell;
+}
+// The row checksums' table follows the populations, one per (component, direction, z, y), in
+// that order; where row (y, z) of component c, direction i lies in it.
+std::size_t row_checksum_index(int c, int i, const Grid3& g, int y, int z) {
+  return ((static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * g.nz + z) * g.ny + y;
+}
+std::size_t population_bytes(const Grid3& g) { return 2 * d3q19::q * g.cells() * sizeof(float); }
+std::size_t checkpoint_bytes(const Grid3& g) {
+  const std::size_t rows = 2 * d3q19::q * static_cast<std::size_t>(g.ny) * static_cast<std::size_t>(g.nz);
+  return checkpoint_header_bytes + population_bytes(g) + rows * sizeof(std::uint64_t);
+}
+// The checksums of `rows` consecutive rows of nx values each.
+void row_checksums(const float* values, int rows, int nx, std::uint64_t* out) {
+  for (int r = 0; r < rows; ++r)
+    out[r] = checksum(values + static_cast<std::size_t>(r) * nx, static_cast<std::size_t>(nx) * sizeof(float));
 }
 
 // The error when a checkpoint cannot be opened for writing, with the system's reason.
@@ -101,14 +145,18 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
     std::ofstream os(out.temp_path(), std::ios::binary);
     if (!os) throw cannot_open_for_writing(path);
     write_checkpoint_header(os, h);
-    std::vector<float> values(h.grid.cells());
+    const Grid3& g = h.grid;
+    std::vector<float> values(g.cells());
+    std::vector<std::uint64_t> sums(2 * d3q19::q * static_cast<std::size_t>(g.ny) * g.nz);
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i) {
         direction(c, i, values.data());
         canonical_nans(values.data(), values.size());
         os.write(reinterpret_cast<const char*>(values.data()),
                  static_cast<std::streamsize>(values.size() * sizeof(float)));
+        row_checksums(values.data(), g.ny * g.nz, g.nx, &sums[row_checksum_index(c, i, g, 0, 0)]);
       }
+    os.write(reinterpret_cast<const char*>(sums.data()), static_cast<std::streamsize>(sums.size() * sizeof(sums[0])));
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = path.string()});
   }
   out.commit();
@@ -122,14 +170,26 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
   is.read(m, sizeof m);
   if (std::memcmp(m, "NEPHOS-LBM-CK1", 15) == 0)
     throw FormatError("checkpoint from an older nephos (format CK1): rerun the simulation", {.file = path.string()});
-  const bool ck2 = std::memcmp(m, magic_ck2, sizeof magic_ck2) == 0;
-  if (!ck2 && std::memcmp(m, magic, sizeof magic) != 0)
-    throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
+  const int format = std::memcmp(m, magic, sizeof magic) == 0           ? 4
+                     : std::memcmp(m, magic_ck3, sizeof magic_ck3) == 0 ? 3
+                     : std::memcmp(m, magic_ck2, sizeof magic_ck2) == 0 ? 2
+                                                                        : 0;
+  if (format == 0) throw FormatError("not a nephos lbm checkpoint", {.file = path.string()});
   std::int64_t hdr[4];
   is.read(reinterpret_cast<char*>(hdr), sizeof hdr);
   std::array<double, param_count> params{};  // CK2 has no storage field: FP32
   is.read(reinterpret_cast<char*>(params.data()),
-          static_cast<std::streamsize>((ck2 ? param_count - 1 : param_count) * sizeof(double)));
+          static_cast<std::streamsize>((format == 2 ? param_count - 1 : param_count) * sizeof(double)));
+  if (format == 4) {  // the checksum of the bytes read so far
+    char bytes[checked_header_bytes];
+    std::memcpy(bytes, m, sizeof m);
+    std::memcpy(bytes + sizeof m, hdr, sizeof hdr);
+    std::memcpy(bytes + sizeof m + sizeof hdr, params.data(), sizeof params);
+    std::uint64_t sum = 0;
+    is.read(reinterpret_cast<char*>(&sum), sizeof sum);
+    if (is && sum != checksum(bytes, sizeof bytes))
+      throw FormatError("corrupt checkpoint header (it does not match its checksum)", {.file = path.string()});
+  }
   if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
     throw FormatError("corrupt checkpoint header", {.file = path.string()});
   // Every parameter a number and the silo count an integer in range, before any is used (a
@@ -139,7 +199,35 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
     throw FormatError("corrupt checkpoint header (a parameter is not a number or out of range)",
                       {.file = path.string()});
   return {Grid3{static_cast<int>(hdr[0]), static_cast<int>(hdr[1]), static_cast<int>(hdr[2])}, hdr[3],
-          params_from_array(params)};
+          params_from_array(params), format};
+}
+
+// `count` row checksums of a CK4 file from the table's entry `first` (row_checksum_index());
+// none for the older formats, which have none. `populations`: where the populations start.
+std::vector<std::uint64_t> read_row_checksums(std::ifstream& is, const std::filesystem::path& path,
+                                              const CheckpointHeader& h, std::streamoff populations, std::size_t first,
+                                              std::size_t count) {
+  if (h.format < 4) return {};
+  std::vector<std::uint64_t> sums(count);
+  const std::size_t at = population_bytes(h.grid) + first * sizeof(std::uint64_t);
+  is.seekg(populations + static_cast<std::streamoff>(at));
+  is.read(reinterpret_cast<char*>(sums.data()), static_cast<std::streamsize>(sums.size() * sizeof(sums[0])));
+  if (!is) throw FormatError("truncated checkpoint (its row checksums are missing)", {.file = path.string()});
+  return sums;
+}
+
+// Checks rows [y0, y1) at z of component c, direction i (nx values each, in `values`) against
+// their checksums (none: older formats).
+void verify_rows(const std::uint64_t* sums, std::size_t rows, const float* values, const CheckpointHeader& h, int c,
+                 int i, int z, int y0, const std::filesystem::path& path) {
+  for (std::size_t r = 0; r < rows; ++r) {
+    const std::size_t nx = static_cast<std::size_t>(h.grid.nx);
+    if (checksum(values + r * nx, nx * sizeof(float)) != sums[r])
+      throw FormatError(fmt::format("corrupt checkpoint: the populations of component {}, direction {}, row y = {}, "
+                                    "z = {} do not match their checksum",
+                                    c, i, y0 + static_cast<int>(r), z),
+                        {.file = path.string()});
+  }
 }
 
 }  // namespace
@@ -156,14 +244,25 @@ void WaterModel::save(const std::filesystem::path& path) const {
 WaterModel WaterModel::load(const std::filesystem::path& path) {
   std::ifstream is(path, std::ios::binary);
   const CheckpointHeader h = read_checkpoint_header(is, path);
-  WaterModel w(h.grid, h.params);
+  const std::streamoff populations = is.tellg();
+  const Grid3& g = h.grid;
+  // CK4: every row's checksum (8 bytes per row of nx cells: 1/(2 nx) of the populations' size).
+  std::vector<std::uint64_t> sums;
+  if (h.format == 4) {
+    sums = read_row_checksums(is, path, h, populations, 0, 2 * d3q19::q * static_cast<std::size_t>(g.ny) * g.nz);
+    is.seekg(populations);
+  }
+  WaterModel w(g, h.params);
   w.step_ = h.step;
-  const std::size_t n = h.grid.cells(), stride = h.grid.direction_stride();
+  const std::size_t n = g.cells(), stride = g.direction_stride();
   std::vector<float> values(n);
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i) {
       is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(n * sizeof(float)));
       if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+      for (int z = 0; !sums.empty() && z < g.nz; ++z)
+        verify_rows(&sums[row_checksum_index(c, i, g, 0, z)], static_cast<std::size_t>(g.ny), &values[g.index(0, 0, z)],
+                    h, c, i, z, 0, path);
       w.f_[c].write(static_cast<std::size_t>(i) * stride, n, values.data());
     }
   return w;
@@ -184,12 +283,11 @@ std::string WaterModel::describe_checkpoint(const std::filesystem::path& path) {
   std::ifstream is(path, std::ios::binary);
   const CheckpointHeader h = read_checkpoint_header(is, path);
   const std::streamoff populations = is.tellg();
-  const bool ck2 = populations < static_cast<std::streamoff>(checkpoint_header_bytes);
   const std::uintmax_t expected =
-      static_cast<std::uintmax_t>(populations) + 2 * d3q19::q * h.grid.cells() * sizeof(float);
+      h.format == 4 ? checkpoint_bytes(h.grid) : static_cast<std::uintmax_t>(populations) + population_bytes(h.grid);
   const std::uintmax_t size = std::filesystem::file_size(path);
   const WaterModelParams& p = h.params;
-  std::string out = fmt::format("{}\n  nephos lbm checkpoint, format {}\n", path.string(), ck2 ? "CK2" : "CK3");
+  std::string out = fmt::format("{}\n  nephos lbm checkpoint, format CK{}\n", path.string(), h.format);
   out += fmt::format("  lattice        {} ({} cells)\n", h.grid.describe(), h.grid.cells());
   out += fmt::format("  step           {}\n", h.step);
   out += fmt::format("  storage        {}\n", p.storage == Storage::fp16 ? "fp16" : "fp32");
@@ -197,6 +295,8 @@ std::string WaterModel::describe_checkpoint(const std::filesystem::path& path) {
       fmt::format("  populations    {}\n",
                   size == expected ? fmt::format("complete ({} bytes)", size)
                                    : fmt::format("TRUNCATED: {} of {} bytes (it cannot be resumed)", size, expected));
+  out += h.format == 4 ? "  checksums      header verified; every row's populations verified when resumed\n"
+                       : "  checksums      none (an older format)\n";
   out += "  [water] parameters:\n";
   const std::pair<const char*, double> values[] = {{"rho10", p.rho10},
                                                    {"rho20", p.rho20},
@@ -223,7 +323,7 @@ std::string WaterModel::describe_checkpoint(const std::filesystem::path& path) {
 WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin, int y_end) {
   std::ifstream is(path, std::ios::binary);
   const CheckpointHeader h = read_checkpoint_header(is, path);
-  const std::streamoff populations = is.tellg();  // CK2 headers are one parameter shorter
+  const std::streamoff populations = is.tellg();  // CK2 headers are one parameter shorter, CK3 one checksum
   WaterModel w(h.grid, h.params, y_begin, y_end);
   w.step_ = h.step;
   // Read only the slab's rows: per (component, direction, z) one run of own x nx values
@@ -239,6 +339,9 @@ WaterModel WaterModel::load_slab(const std::filesystem::path& path, int y_begin,
         is.seekg(populations + static_cast<std::streamoff>(first * sizeof(float)));
         is.read(reinterpret_cast<char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
         if (!is) throw FormatError("truncated checkpoint", {.file = path.string()});
+        const auto sums = read_row_checksums(is, path, h, populations, row_checksum_index(c, i, h.grid, y_begin, z),
+                                             static_cast<std::size_t>(y_end - y_begin));
+        verify_rows(sums.data(), sums.size(), values.data(), h, c, i, z, y_begin, path);
         w.f_[c].write(static_cast<std::size_t>(i) * stride + w.g_.index(0, w.owned_begin(), z), run, values.data());
       }
   return w;
@@ -262,7 +365,7 @@ void WaterModel::create_checkpoint(const std::filesystem::path& file, const Grid
     if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
   }
   std::error_code ec;
-  std::filesystem::resize_file(file, checkpoint_header_bytes + 2 * d3q19::q * global.cells() * sizeof(float), ec);
+  std::filesystem::resize_file(file, checkpoint_bytes(global), ec);
   if (ec) throw IoError("cannot size the checkpoint: " + ec.message(), {.file = file.string()});
 }
 
@@ -273,15 +376,23 @@ void WaterModel::write_owned(const std::filesystem::path& file) const {
   if (!os) throw cannot_open_for_writing(file);
   const std::size_t N = global_.cells(), stride = g_.direction_stride();
   const std::size_t run = static_cast<std::size_t>(owned_end() - owned_begin()) * static_cast<std::size_t>(g_.nx);
+  const int rows = owned_end() - owned_begin(), y0 = global_y(owned_begin());
   std::vector<float> values(run);
+  std::vector<std::uint64_t> sums(static_cast<std::size_t>(rows));
   for (int c = 0; c < 2; ++c)
     for (int i = 0; i < d3q19::q; ++i)
       for (int z = 0; z < g_.nz; ++z) {
         f_[c].read(static_cast<std::size_t>(i) * stride + g_.index(0, owned_begin(), z), run, values.data());
         canonical_nans(values.data(), run);
-        const std::size_t first = checkpoint_value_index(c, i, N, global_.index(0, global_y(owned_begin()), z));
+        const std::size_t first = checkpoint_value_index(c, i, N, global_.index(0, y0, z));
         os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + first * sizeof(float)));
         os.write(reinterpret_cast<const char*>(values.data()), static_cast<std::streamsize>(run * sizeof(float)));
+        // The rows' checksums, in the table after the populations.
+        row_checksums(values.data(), rows, g_.nx, sums.data());
+        os.seekp(static_cast<std::streamoff>(checkpoint_header_bytes + population_bytes(global_) +
+                                             row_checksum_index(c, i, global_, y0, z) * sizeof(std::uint64_t)));
+        os.write(reinterpret_cast<const char*>(sums.data()),
+                 static_cast<std::streamsize>(sums.size() * sizeof(sums[0])));
       }
   if (!os.flush()) throw IoError("checkpoint write failed (disk full?)", {.file = file.string()});
 }

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <string>
 
@@ -22,6 +23,19 @@
 #include "nephos/lbm/water_model.hpp"
 
 namespace nephos::lbm {
+
+namespace {
+// A CK4 checkpoint's bytes as the older format CK3 (no header checksum, no row checksums) or
+// CK2 (nor the storage parameter), whose files must still load.
+std::string older_format(std::string ck4, const Grid3& g, int format) {
+  const std::size_t params_end = 16 + 4 * 8 + 19 * 8;
+  ck4.resize(params_end + 8 + 2 * 19 * g.cells() * 4);  // the row checksums' table dropped
+  ck4.erase(params_end, 8);                             // the header's checksum
+  ck4.replace(0, 14, format == 2 ? "NEPHOS-LBM-CK2" : "NEPHOS-LBM-CK3");
+  if (format == 2) ck4.erase(params_end - 8, 8);  // the storage parameter
+  return ck4;
+}
+}  // namespace
 
 TEST(D3Q19, EquilibriumMomentsForAnyRestFraction) {
   // sum f = rho, sum f c = rho u, sum f c c = rho (1 - d)/2 I + rho u u (eqs. 7, 8, 19): exact
@@ -498,17 +512,17 @@ TEST_P(WaterModelStorage, SlabDecompositionIsBitIdentical) {
   }
   EXPECT_THROW(slabs[0].save(dir / "slab.bin"), ValueError);  // a slab alone is not a checkpoint
   if (GetParam() == Storage::fp32) {
-    // A CK2 file (no storage parameter, so its populations start 8 bytes before CK3's) still
-    // loads, whole and as slabs.
-    std::string ck2 = test_support::file_bytes(dir / "whole.bin");
-    ck2.replace(0, 14, "NEPHOS-LBM-CK2");
-    ck2.erase(16 + 4 * 8 + 18 * 8, 8);
-    std::ofstream(dir / "ck2.bin", std::ios::binary) << ck2;
-    EXPECT_EQ(WaterModel::load(dir / "ck2.bin").pack_owned(), whole.pack_owned());
-    for (int r = 0; r < 3; ++r)
-      EXPECT_EQ(WaterModel::load_slab(dir / "ck2.bin", cuts[r], cuts[r + 1]).pack_owned(),
-                slabs[static_cast<std::size_t>(r)].pack_owned())
-          << "slab " << r;
+    // CK3 and CK2 files (no checksums; CK2 no storage parameter either, so their populations
+    // start 8 and 16 bytes before CK4's) still load, whole and as slabs.
+    for (int format : {3, 2}) {
+      std::ofstream(dir / "old.bin", std::ios::binary)
+          << older_format(test_support::file_bytes(dir / "whole.bin"), g, format);
+      EXPECT_EQ(WaterModel::load(dir / "old.bin").pack_owned(), whole.pack_owned()) << "CK" << format;
+      for (int r = 0; r < 3; ++r)
+        EXPECT_EQ(WaterModel::load_slab(dir / "old.bin", cuts[r], cuts[r + 1]).pack_owned(),
+                  slabs[static_cast<std::size_t>(r)].pack_owned())
+            << "CK" << format << ", slab " << r;
+    }
   }
   std::filesystem::remove_all(dir);
 }
@@ -594,7 +608,10 @@ TEST(WaterModel, ACheckpointStoresEveryNanAsTheOneQuietNan) {
   WaterModel m(g, WaterModelParams{});
   m.initialise_uniform(0.3, 0.5, 0.01, 7);
   m.save(path);
-  std::string bytes = test_support::file_bytes(path);
+  const std::string ck4 = test_support::file_bytes(path);
+  // The NaNs go into a CK3 copy (no checksums, which they would break); the files written from
+  // it are CK4 again.
+  std::string bytes = older_format(ck4, g, 3);
   const std::size_t header = 16 + 4 * 8 + 19 * 8, cells = g.cells();
   auto at = [&](int c, int i, std::size_t cell) {
     return header + 4 * ((static_cast<std::size_t>(c) * 19 + i) * cells + cell);
@@ -618,14 +635,16 @@ TEST(WaterModel, ACheckpointStoresEveryNanAsTheOneQuietNan) {
     const auto [pa, pb] = std::mismatch(a.begin(), a.end(), b.begin(), b.end());
     return pa == a.end() && pb == b.end() ? std::string::npos : static_cast<std::size_t>(pa - a.begin());
   };
-  ASSERT_EQ(saved.size(), bytes.size());
+  ASSERT_EQ(saved.size(), ck4.size());
   EXPECT_EQ(first_difference(saved, written), std::string::npos);  // the slabs' file is the whole lattice's
   std::string expected = bytes;
   for (std::size_t o : {at(0, 3, 10), at(1, 0, 100), at(1, 7, 200)}) {
     const std::uint32_t quiet = 0x7FC00000u;
     std::memcpy(expected.data() + o, &quiet, 4);
   }
-  EXPECT_EQ(first_difference(saved, expected), std::string::npos);  // the NaNs canonical, the rest as it was
+  // The NaNs canonical, the rest as it was; the file whole by its checksums.
+  EXPECT_EQ(first_difference(older_format(saved, g, 3), expected), std::string::npos);
+  EXPECT_TRUE(WaterModel::load(again).bad_density().has_value());
   for (const auto& f : {path, again, slabs}) std::filesystem::remove(f);
 }
 
@@ -639,22 +658,54 @@ TEST(WaterModel, CheckpointErrors) {
   EXPECT_THROW(Grid3::parse("2x12x12"), ValueError);
   EXPECT_EQ(Grid3::parse("128x64x32").ny, 64);
   // A checkpoint whose header was damaged: a NaN parameter, a silo count that is not an integer,
-  // a negative lattice edge or step are each a FormatError, not a model that runs into NaN.
-  WaterModel m(Grid3{8, 8, 8}, WaterModelParams{});
+  // a negative lattice edge or step are each a FormatError, not a model that runs into NaN: in
+  // a file without checksums (CK3) by the header's checks.
+  const Grid3 g{8, 8, 8};
+  WaterModel m(g, WaterModelParams{});
   m.save(path);
-  const std::string good = test_support::file_bytes(path);
+  const std::string good = test_support::file_bytes(path), good_ck3 = older_format(good, g, 3);
   const std::size_t params_at = 16 + 4 * 8;  // magic, (nx, ny, nz, step), then the parameters
-  auto damaged = [&](std::size_t at, auto value) {
-    std::string bytes = good;
+  auto damaged = [&](const std::string& file, std::size_t at, auto value) {
+    std::string bytes = file;
     std::memcpy(bytes.data() + at, &value, sizeof value);
     std::ofstream(path, std::ios::binary) << bytes;
     return path;
   };
-  EXPECT_THROW(WaterModel::load(damaged(params_at, std::nan(""))), FormatError);       // rho10
-  EXPECT_THROW(WaterModel::load(damaged(params_at + 11 * 8, 2.5)), FormatError);       // silos
-  EXPECT_THROW(WaterModel::load(damaged(16, std::int64_t{-8})), FormatError);          // nx
-  EXPECT_THROW(WaterModel::load(damaged(16 + 3 * 8, std::int64_t{-1})), FormatError);  // step
-  EXPECT_EQ(WaterModel::load(damaged(params_at + 11 * 8, 7.0)).params().silos, 7);     // still whole
+  EXPECT_THROW(WaterModel::load(damaged(good_ck3, params_at, std::nan(""))), FormatError);       // rho10
+  EXPECT_THROW(WaterModel::load(damaged(good_ck3, params_at + 11 * 8, 2.5)), FormatError);       // silos
+  EXPECT_THROW(WaterModel::load(damaged(good_ck3, 16, std::int64_t{-8})), FormatError);          // nx
+  EXPECT_THROW(WaterModel::load(damaged(good_ck3, 16 + 3 * 8, std::int64_t{-1})), FormatError);  // step
+  EXPECT_EQ(WaterModel::load(damaged(good_ck3, params_at + 11 * 8, 7.0)).params().silos, 7);     // still whole
+  // CK4 refuses any change its checksums see, also one that leaves every value plausible: the
+  // silo count, one bit of a population (whole or in the slab that holds it; the other slab
+  // loads), the row checksums' table itself, or a file cut short of it. Each message names the
+  // file and, for a population, its row.
+  auto message = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const FormatError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(message([&] { WaterModel::load(damaged(good, params_at + 11 * 8, 7.0)); }).find("header"),
+            std::string::npos);
+  const std::size_t populations = params_at + 19 * 8 + 8, cell = g.index(3, 5, 2);
+  const std::size_t at = populations + 4 * ((1 * 19 + 4) * g.cells() + cell);  // component 1, direction 4
+  auto flipped = [&](const std::string& file, std::size_t offset) {
+    std::string bytes = file;
+    bytes[offset] = static_cast<char>(bytes[offset] ^ 1);
+    std::ofstream(path, std::ios::binary) << bytes;
+    return path;
+  };
+  const std::string row = "component 1, direction 4, row y = 5, z = 2 do not match their checksum";
+  EXPECT_NE(message([&] { WaterModel::load(flipped(good, at)); }).find(row), std::string::npos);
+  EXPECT_NE(message([&] { WaterModel::load_slab(flipped(good, at), 4, 8); }).find(row), std::string::npos);
+  EXPECT_EQ(message([&] { WaterModel::load_slab(flipped(good, at), 0, 4); }), "no error");
+  EXPECT_NE(message([&] { WaterModel::load(flipped(good, good.size() - 3)); }).find("do not match their checksum"),
+            std::string::npos);
+  { std::ofstream(path, std::ios::binary) << good.substr(0, good.size() - 8); }
+  EXPECT_NE(message([&] { WaterModel::load(path); }).find("truncated"), std::string::npos);
   std::filesystem::remove(path);
 }
 
