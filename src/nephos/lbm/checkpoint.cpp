@@ -212,7 +212,10 @@ std::vector<std::uint64_t> read_row_checksums(std::ifstream& is, const std::file
   const std::size_t at = population_bytes(h.grid) + first * sizeof(std::uint64_t);
   is.seekg(populations + static_cast<std::streamoff>(at));
   is.read(reinterpret_cast<char*>(sums.data()), static_cast<std::streamsize>(sums.size() * sizeof(sums[0])));
-  if (!is) throw FormatError("truncated checkpoint (its row checksums are missing)", {.file = path.string()});
+  if (!is)
+    throw FormatError(fmt::format("truncated checkpoint ({} of {} bytes)", std::filesystem::file_size(path),
+                                  checkpoint_bytes(h.grid)),
+                      {.file = path.string()});
   return sums;
 }
 
