@@ -50,13 +50,14 @@ class ParamDict {
   /// Throws ConfigError naming the first key (in file order) that no get()/table() has read.
   void check_unused() const;
   const std::string& source() const;
+  /// Throws ConfigError with `message`, naming the file, the full key and its line: for checks
+  /// of a value beyond its type and range.
+  [[noreturn]] void fail(std::string_view key, const std::string& message) const;
 
  private:
   struct Shared;
   ParamDict(std::shared_ptr<Shared> shared, const toml::table* table, std::string prefix);
   const void* node(std::string_view key) const;
-  /// Throws ConfigError with `message`, naming the file, the full key and its line.
-  [[noreturn]] void fail(std::string_view key, const std::string& message) const;
   [[noreturn]] void type_error(std::string_view key, const char* expected) const;
   [[noreturn]] void range_error(std::string_view key, const std::string& range) const;
 

@@ -13,8 +13,8 @@ namespace nephos::render {
 namespace {
 Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth::Vec3& up_hint, double fov_deg,
                 int width, int height) {
-  if (!(fov_deg > 0 && fov_deg < 179))
-    throw ValueError(fmt::format("field of view {} deg must be in (0, 179)", fov_deg), {.key = "fov"});
+  if (!(fov_deg > 0 && fov_deg < max_fov_deg))
+    throw ValueError(fmt::format("field of view {} deg must be in (0, {:g})", fov_deg, max_fov_deg), {.key = "fov"});
   if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "size"});
   Sensor s;
   s.position = pos;
@@ -52,7 +52,8 @@ Sensor Sensor::nadir(double lat_deg, double lon_deg, double altitude_m, double f
 Sensor Sensor::look_at(const earth::Geodetic& from, const earth::Geodetic& target, double fov_deg, int width,
                        int height, const earth::Vec3* up_hint) {
   const earth::Vec3 pos = earth::ecef(from), tgt = earth::ecef(target);
-  if (glm::length(tgt - pos) < 1.0) throw ValueError("camera position and look-at target coincide", {.key = "camera"});
+  if (glm::length(tgt - pos) < min_look_at_distance_m)
+    throw ValueError("camera position and look-at target coincide", {.key = "camera"});
   Sensor s = oriented(pos, tgt - pos, up_hint ? *up_hint : glm::normalize(pos), fov_deg, width, height);
   s.description = fmt::format("camera at ({:g}, {:g}, {:g} m) looking at ({:g}, {:g}, {:g} m)", from.lat_deg,
                               from.lon_deg, from.alt_m, target.lat_deg, target.lon_deg, target.alt_m);
@@ -69,7 +70,13 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
                              need("position_alt_m", -earth::radius_m + 1, big)};
   const earth::Geodetic to{need("look_at_lat_deg", -90, 90), need("look_at_lon_deg", -big, big),
                            c.get_in("look_at_alt_m", 0.0, -earth::radius_m + 1, big)};
-  const double fov = need("fov_deg", -big, big);  // Sensor::oriented() checks its range
+  // The limits Sensor::look_at() checks, here named as the file's keys.
+  const double fov = need("fov_deg", -big, big);
+  if (!(fov > 0 && fov < max_fov_deg))
+    c.fail("fov_deg", fmt::format("must be in (0, {:g}), got {:g}", max_fov_deg, fov));
+  if (glm::length(earth::ecef(to) - earth::ecef(from)) < min_look_at_distance_m)
+    c.fail("look_at_lat_deg",
+           fmt::format("the look-at target lies within {:g} m of the camera's position", min_look_at_distance_m));
   const std::vector<double> up = c.get("up", std::vector<double>{});
   if (!up.empty() && up.size() != 3) throw ConfigError("expected [x, y, z]", {.file = c.source(), .key = "camera.up"});
   for (double u : up)

@@ -12,6 +12,10 @@
 namespace nephos::render {
 
 inline constexpr double geostationary_altitude_m = 35786e3;
+/// A pinhole's horizontal field of view lies in (0, max_fov_deg) [deg].
+inline constexpr double max_fov_deg = 179;
+/// A look-at camera's target lies at least this far from it [m].
+inline constexpr double min_look_at_distance_m = 1;
 
 /// An ABI sensor on the GOES-R fixed grid (fixed_grid.hpp): its projection, sector, nominal
 /// sub-satellite longitude and platform ("G16", "G18").

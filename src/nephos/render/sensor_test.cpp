@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <tuple>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/test_support.hpp"
@@ -54,16 +55,27 @@ TEST(Sensor, TomlCameraAndErrors) {
   std::ofstream(path) << "[camera]\nposition_lat_deg = 20.0\nbogus = 1\n";
   EXPECT_THROW(parse_sensor(path.string(), 64, 32), ConfigError);
   // Out of range, or nan (TOML has it): a ConfigError naming the key.
-  for (const char* bad : {"position_lat_deg = 95.0", "position_lat_deg = nan"}) {
-    std::ofstream(path) << "[camera]\n"
-                        << bad
-                        << "\nposition_lon_deg = -60.0\nposition_alt_m = 3000.0\n"
-                           "look_at_lat_deg = 20.5\nlook_at_lon_deg = -60.0\nfov_deg = 60.0\n";
+  // So are the camera's own limits: a field of view outside (0, 179) deg, a target on the
+  // camera (each with the file and the line). Each case overrides the good file's values.
+  const std::vector<std::pair<std::string, std::string>> good = {
+      {"position_lat_deg", "20.0"}, {"position_lon_deg", "-60.0"}, {"position_alt_m", "3000.0"},
+      {"look_at_lat_deg", "20.5"},  {"look_at_lon_deg", "-60.0"},  {"fov_deg", "60.0"}};
+  for (const auto& [key, value, named] :
+       {std::tuple{"position_lat_deg", "95.0", "position_lat_deg"},
+        std::tuple{"position_lat_deg", "nan", "position_lat_deg"}, std::tuple{"fov_deg", "179.0", "fov_deg"},
+        std::tuple{"fov_deg", "0.0", "fov_deg"}, std::tuple{"position_lat_deg", "20.5", "look_at_lat_deg"}}) {
+    std::ofstream out(path);
+    out << "[camera]\n";
+    for (const auto& [k, v] : good) out << k << " = " << (k == key ? value : v) << "\n";
+    if (std::string(key) == "position_lat_deg" && std::string(value) == "20.5") out << "look_at_alt_m = 3000.0\n";
+    out.close();
     try {
       parse_sensor(path.string(), 64, 32);
-      ADD_FAILURE() << bad;
+      ADD_FAILURE() << key << " = " << value;
     } catch (const ConfigError& e) {
-      EXPECT_EQ(e.context().key, std::string("camera.position_lat_deg")) << bad;
+      EXPECT_EQ(e.context().key, std::string("camera.") + named) << key << " = " << value;
+      EXPECT_EQ(e.context().file, path.string()) << key << " = " << value;
+      EXPECT_GT(e.context().line, 0) << key << " = " << value;
     }
   }
   std::filesystem::remove(path);
