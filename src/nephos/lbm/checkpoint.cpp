@@ -36,8 +36,9 @@ constexpr char magic_ck3[16] = "NEPHOS-LBM-CK3";
 constexpr char magic_ck2[16] = "NEPHOS-LBM-CK2";
 constexpr int param_count = 19;
 
-// A checksum of n 32-bit words: four interleaved lanes of FNV-1a's xor-multiply (each a
-// bijection of its word, so one damaged word always changes it), folded with mix64.
+// A checksum of `bytes` bytes read as 32-bit words: four interleaved lanes of FNV-1a's
+// xor-multiply, folded with mix64. Each step is a bijection of its word and of the lane, and the
+// fold of each lane, so one damaged word always changes it.
 std::uint64_t checksum(const void* data, std::size_t bytes) {
   const auto* p = static_cast<const unsigned char*>(data);
   std::uint64_t lane[4] = {0xcbf29ce484222325ULL, 0x84222325cbf29ce4ULL, 0x9e3779b97f4a7c15ULL, 0xc4ceb9fe1a85ec53ULL};
@@ -249,7 +250,7 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
   const CheckpointHeader h = read_checkpoint_header(is, path);
   const std::streamoff populations = is.tellg();
   const Grid3& g = h.grid;
-  // CK4: every row's checksum (8 bytes per row of nx cells: 1/(2 nx) of the populations' size).
+  // CK4: every row's checksum (8 bytes per row of nx populations: 2/nx of their size).
   std::vector<std::uint64_t> sums;
   if (h.format == 4) {
     sums = read_row_checksums(is, path, h, populations, 0, 2 * d3q19::q * static_cast<std::size_t>(g.ny) * g.nz);
