@@ -699,6 +699,8 @@ TEST(WaterModel, CheckpointErrors) {
     return path;
   };
   const std::string row = "component 1, direction 4, row y = 5, z = 2 do not match their checksum";
+  EXPECT_NE(message([&] { WaterModel::load(flipped(good, at)); }).find(path.string() + ": corrupt checkpoint"),
+            std::string::npos);
   EXPECT_NE(message([&] { WaterModel::load(flipped(good, at)); }).find(row), std::string::npos);
   EXPECT_NE(message([&] { WaterModel::load_slab(flipped(good, at), 4, 8); }).find(row), std::string::npos);
   EXPECT_EQ(message([&] { WaterModel::load_slab(flipped(good, at), 0, 4); }), "no error");
