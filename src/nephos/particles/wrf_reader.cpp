@@ -1,5 +1,6 @@
 #include "nephos/particles/wrf_reader.hpp"
 
+#include <fmt/format.h>
 #include <netcdf.h>
 #include <spdlog/spdlog.h>
 
@@ -45,12 +46,17 @@ const VarSpec specs[] = {
     {"W", {"Time", "bottom_top_stag", "south_north", "west_east"}, "m s-1"},
 };
 
+// A magnitude no field the particle clouds read reaches (geopotential ~1e6 m2 s-2, winds,
+// mixing ratios); NetCDF's default fill value, 9.97e36, lies above it.
+constexpr float max_wrf_value = 1e30f;
+
 class WrfFile {
  public:
   explicit WrfFile(const std::filesystem::path& path) : path_(path.string()) {
     require_input_file(path, "a WRF output file (wrfout NetCDF)");
     const int st = nc_open(path_.c_str(), NC_NOWRITE, &id_);
     if (st != NC_NOERR) throw IoError(std::string("cannot open as NetCDF: ") + nc_strerror(st), {.file = path_});
+    require_whole();
   }
   ~WrfFile() { nc_close(id_); }
   WrfFile(const WrfFile&) = delete;
@@ -115,6 +121,21 @@ class WrfFile {
     const int st = nc_get_vara_float(id_, v, start.data(), count.data(), out.data());
     if (st != NC_NOERR)
       throw FormatError(std::string("cannot read values: ") + nc_strerror(st), {.file = path_, .field = name});
+    // Every value a number that WRF could have written: NaN, infinity and NetCDF's fill value
+    // (9.97e36: never written) are damage or missing data, refused before they reach a particle.
+    const auto bad = std::find_if(out.begin(), out.end(), [](float x) { return !(std::abs(x) < max_wrf_value); });
+    if (bad != out.end()) {
+      std::size_t rest = static_cast<std::size_t>(bad - out.begin());
+      std::string at;
+      for (std::size_t k = shape.size(); k-- > 0;) {
+        at = fmt::format("{}{}", rest % shape[k], at.empty() ? "" : ", " + at);
+        rest /= shape[k];
+      }
+      throw FormatError(fmt::format("value {} at time index {}, ({}) is not a number WRF writes (missing or damaged "
+                                    "data)",
+                                    *bad, time, at),
+                        {.file = path_, .field = name});
+    }
     return out;
   }
 
@@ -140,6 +161,33 @@ class WrfFile {
   const std::string& path() const { return path_; }
 
  private:
+  // A classic-format file (WRF's usual) cut short reads as zeros past its end, without an error
+  // from the library: its variables' values, uncompressed, must fit in the file.
+  void require_whole() const {
+    int format = 0, nvars = 0;
+    nc_inq_format(id_, &format);
+    if (format != NC_FORMAT_CLASSIC && format != NC_FORMAT_64BIT_OFFSET && format != NC_FORMAT_CDF5) return;
+    nc_inq_nvars(id_, &nvars);
+    std::uintmax_t need = 0;
+    for (int v = 0; v < nvars; ++v) {
+      nc_type type = 0;
+      int ndims = 0;
+      std::array<int, NC_MAX_VAR_DIMS> dims{};
+      nc_inq_var(id_, v, nullptr, &type, &ndims, dims.data(), nullptr);
+      std::size_t bytes = 0, len = 0;
+      nc_inq_type(id_, type, nullptr, &bytes);
+      for (int k = 0; k < ndims; ++k) {
+        nc_inq_dimlen(id_, dims[static_cast<std::size_t>(k)], &len);
+        bytes *= len;
+      }
+      need += bytes;
+    }
+    const std::uintmax_t size = std::filesystem::file_size(path_);
+    if (size < need)
+      throw FormatError(fmt::format("truncated: {} bytes, where its variables' values alone take {}", size, need),
+                        {.file = path_});
+  }
+
   std::string path_;
   int id_ = -1;
 };
@@ -172,9 +220,10 @@ ParticleWeather read_wrf(const std::filesystem::path& path, const std::optional<
   for (const VarSpec& s : specs)
     if (has_ice || std::string(s.name) != "QICE") f.check(s);
   const double dx = f.global_double("DX"), dy = f.global_double("DY");
-  if (!(dx > 0) || !(dy > 0))
-    throw FormatError("grid spacing must be positive, got DX=" + std::to_string(dx) + " DY=" + std::to_string(dy),
-                      {.file = f.path(), .key = "DX"});
+  if (!(dx > 0 && std::isfinite(dx)) || !(dy > 0 && std::isfinite(dy)))
+    throw FormatError(
+        "grid spacing must be positive and finite, got DX=" + std::to_string(dx) + " DY=" + std::to_string(dy),
+        {.file = f.path(), .key = "DX"});
   const auto time_strings = f.times(nt, f.dim("DateStrLen"));
 
   // Region -> smallest index rectangle of the cells inside it (XLAT/XLONG of the first time).

@@ -2,10 +2,13 @@
 #include "nephos/particles/wrf_reader.hpp"
 
 #include <gtest/gtest.h>
+#include <netcdf.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/test_support.hpp"
@@ -161,4 +164,41 @@ TEST(WrfReader, UnreadableFilesAreIoErrors) {
   const fs::path f = nephos::test_support::temp_path("not_netcdf.nc");
   std::ofstream(f) << "this is not NetCDF\n";
   EXPECT_THROW(read_wrf(f), IoError);
+}
+
+// A damaged file is refused, not read: one NaN or fill value in a field the clouds are made of
+// (a NaN height sent particles to NaN positions and crashed the motion), named with its field
+// and index; a file cut short, whose missing end NetCDF's classic format reads as zeros.
+TEST(WrfReader, DamagedFilesAreRefusedNotRead) {
+  const fs::path f = temp_file("wrf_damaged");
+  for (const float bad : {std::nanf(""), 9.969209968386869e36f, -INFINITY}) {
+    test_data::write_test_wrfout(f);
+    int nc = 0, v = 0;
+    ASSERT_EQ(nc_open(f.c_str(), NC_WRITE, &nc), NC_NOERR);
+    ASSERT_EQ(nc_inq_varid(nc, "PH", &v), NC_NOERR);
+    const std::size_t at[4] = {1, 2, 3, 4};  // time 1, bottom_top_stag 2, south_north 3, west_east 4
+    ASSERT_EQ(nc_put_var1_float(nc, v, at, &bad), NC_NOERR);
+    ASSERT_EQ(nc_close(nc), NC_NOERR);
+    try {
+      read_wrf(f);
+      ADD_FAILURE() << bad << " was read";
+    } catch (const FormatError& e) {
+      EXPECT_EQ(e.context().field, "PH") << e.what();
+      EXPECT_NE(std::string(e.what()).find("time index 1, (2, 3, 4)"), std::string::npos) << e.what();
+    }
+  }
+  test_data::write_test_wrfout(f);
+  std::string bytes;
+  {
+    std::ifstream in(f, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  std::ofstream(f, std::ios::binary | std::ios::trunc) << bytes.substr(0, bytes.size() / 2);
+  try {
+    read_wrf(f);
+    ADD_FAILURE() << "a file cut in half was read";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+  }
+  fs::remove(f);
 }
