@@ -227,19 +227,37 @@ UtcTime time_from(long yyyymmdd, long hhmm) {
                              static_cast<int>(hhmm % 100));
 }
 
+// The file being read, for assertion_failed().
+thread_local const std::filesystem::path* reading = nullptr;
+
+// ecCodes aborts the process when a damaged message breaks one of its internal assertions
+// (complex packing whose group counts overrun the values): instead, a FormatError naming the
+// file, thrown through ecCodes' frames (it is built with unwind tables) to the caller.
+void assertion_failed(const char* message) {
+  throw FormatError(fmt::format("damaged GRIB data ({})", message),
+                    {.file = reading ? reading->string() : std::string()});
+}
+
 // ecCodes keeps the position within a multi-field message per FILE*, in its default context;
 // the state is dropped when the file is done with (also on an exception), so that a later file
-// opened at the same address starts afresh. Weather files are read from one thread.
+// opened at the same address starts afresh. Weather files are read from one thread. The scope
+// also names the file to assertion_failed().
 struct MultiFieldScope {
   FILE* file;
-  explicit MultiFieldScope(FILE* f) : file(f) {
+  const std::filesystem::path* previous = reading;
+  MultiFieldScope(FILE* f, const std::filesystem::path& path) : file(f) {
     static const bool on = [] {
       codes_grib_multi_support_on(nullptr);
+      codes_set_codes_assertion_failed_proc(assertion_failed);
       return true;
     }();
     (void)on;
+    reading = &path;
   }
-  ~MultiFieldScope() { codes_grib_multi_support_reset_file(nullptr, file); }
+  ~MultiFieldScope() {
+    codes_grib_multi_support_reset_file(nullptr, file);
+    reading = previous;
+  }
   MultiFieldScope(const MultiFieldScope&) = delete;
   MultiFieldScope& operator=(const MultiFieldScope&) = delete;
 };
@@ -248,7 +266,7 @@ struct MultiFieldScope {
 template <class Fn>
 void for_each_field(const std::filesystem::path& path, Fn&& fn) {
   auto file = open_file(path);
-  const MultiFieldScope multi(file.get());
+  const MultiFieldScope multi(file.get(), path);
   int count = 0;
   for (;;) {
     int err = 0;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <string>
 
 #include "nephos/core/error.hpp"
 #include "nephos/core/test_support.hpp"
@@ -161,6 +162,28 @@ TEST_F(GribReaderTest, NotGrib) {
   } catch (const FormatError& e) {
     EXPECT_NE(std::string(e.what()).find("not a GRIB file"), std::string::npos) << e.what();
   }
+}
+
+// Damaged data that breaks one of ecCodes' internal assertions (here four bytes of a complex-
+// packed field of the embedded sample overwritten, so that its groups overrun its values): a
+// FormatError naming the file, where ecCodes itself would abort the process (found by
+// overwriting bytes of the sample at random offsets). Reading continues to work after it.
+TEST_F(GribReaderTest, DamagedPackingIsAnErrorNotAnAbort) {
+  const auto sample = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
+  std::ifstream in(sample, std::ios::binary);
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  ASSERT_GT(bytes.size(), 672370u);
+  bytes.replace(672366, 4, "\xff\xff\xff\xff");
+  const auto p = file("damaged.grib2");
+  std::ofstream(p, std::ios::binary) << bytes;
+  try {
+    open_weather(p);
+    FAIL() << "the damaged file was read";
+  } catch (const FormatError& e) {
+    EXPECT_EQ(e.context().file, p.string());
+    EXPECT_NE(std::string(e.what()).find("damaged GRIB data (ecCodes assertion failed"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(open_weather(sample).metadata().valid_time.iso(), "2011-01-15T12:00:00Z");
 }
 
 TEST_F(GribReaderTest, SurfaceOnlyFileHasNoPressureLevels) {
