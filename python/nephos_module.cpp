@@ -301,6 +301,8 @@ class Scene {
 
 // nephos.write_abi_l1b: an ABI view's Dataset (Scene.render) as L1b files in `dir`.
 std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::string& dir) {
+  if (!py::hasattr(dataset, "attrs") || !py::hasattr(dataset, "data_vars"))
+    throw ValueError("expected the xarray.Dataset of an ABI view (Scene.render)", {.key = "dataset"});
   const py::dict attrs = dataset.attr("attrs");
   for (const char* k : {"sensor", "scene", "abi_step", "resolution_km", "time", "sun_distance_au"})
     if (!attrs.contains(k))
@@ -316,8 +318,16 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
     if (n.rfind(prefix, 0) != 0) continue;
     const std::string band = n.substr(prefix.size());
     auto values = [&](const std::string& var) {
-      const auto a =
-          dataset[py::str(var)].attr("values").cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+      // In the image's row order whatever the variable's dimension order (a transposed view).
+      const py::object da = dataset[py::str(var)];
+      const auto dims = da.attr("dims").cast<std::vector<std::string>>();
+      const std::vector<std::string> yx{"y", "x"};
+      if (!std::is_permutation(dims.begin(), dims.end(), yx.begin(), yx.end()))
+        throw ValueError(fmt::format("{} has dimensions ({}), expected (y, x)", var, fmt::join(dims, ", ")),
+                         {.key = "dataset"});
+      const auto a = da.attr("transpose")("y", "x")
+                         .attr("values")
+                         .cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
       if (a.ndim() != 2 || a.shape(0) != img.height || a.shape(1) != img.width)
         throw ValueError(fmt::format("{} is not {}x{}", var, img.height, img.width), {.key = "dataset"});
       return std::vector<float>(a.data(), a.data() + a.size());

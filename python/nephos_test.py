@@ -370,6 +370,13 @@ class AbiL1b(unittest.TestCase):
             a, b = netCDF4.Dataset(py_files[0]), netCDF4.Dataset(cli_files[0])
             self.assertTrue((a["Rad"][:] == b["Rad"][:]).all())
             self.assertTrue(np.allclose(a["x"][:], ds.x.values, rtol=0, atol=1e-9))
+            # A view transposed (x, y) writes the same files (the square image was written
+            # transposed before); what is not an ABI view's Dataset is a ValueError naming it.
+            t_files = nephos.write_abi_l1b(ds.transpose("x", "y"), str(Path(d) / "t"))
+            self.assertTrue((netCDF4.Dataset(t_files[0])["Rad"][:] == a["Rad"][:]).all())
+            for bad in (5, {"radiance_lwir": 1}, ds.rename({"x": "col"})):
+                with self.assertRaisesRegex(ValueError, "'dataset'"):
+                    nephos.write_abi_l1b(bad, str(Path(d) / "bad"))
         self.assertIsInstance(nephos.Scene(nephos.Weather(str(SAMPLE)), texture=8).render(
             sensor="abi:east", abi_step=64, bands=["lwir"], as_dict=True), dict)
 
