@@ -56,7 +56,10 @@ class WrfFile {
     require_input_file(path, "a WRF output file (wrfout NetCDF)");
     const int st = nc_open(path_.c_str(), NC_NOWRITE, &id_);
     if (st != NC_NOERR) throw IoError(std::string("cannot open as NetCDF: ") + nc_strerror(st), {.file = path_});
-    require_whole();
+    if (const std::string why = truncation(); !why.empty()) {
+      nc_close(id_);  // no destructor runs for a constructor that throws
+      throw FormatError(why, {.file = path_});
+    }
   }
   ~WrfFile() { nc_close(id_); }
   WrfFile(const WrfFile&) = delete;
@@ -162,11 +165,12 @@ class WrfFile {
 
  private:
   // A classic-format file (WRF's usual) cut short reads as zeros past its end, without an error
-  // from the library: its variables' values, uncompressed, must fit in the file.
-  void require_whole() const {
+  // from the library: its variables' values, uncompressed, must fit in the file. Why it does
+  // not, or empty.
+  std::string truncation() const {
     int format = 0, nvars = 0;
     nc_inq_format(id_, &format);
-    if (format != NC_FORMAT_CLASSIC && format != NC_FORMAT_64BIT_OFFSET && format != NC_FORMAT_CDF5) return;
+    if (format != NC_FORMAT_CLASSIC && format != NC_FORMAT_64BIT_OFFSET && format != NC_FORMAT_CDF5) return {};
     nc_inq_nvars(id_, &nvars);
     std::uintmax_t need = 0;
     for (int v = 0; v < nvars; ++v) {
@@ -183,9 +187,8 @@ class WrfFile {
       need += bytes;
     }
     const std::uintmax_t size = std::filesystem::file_size(path_);
-    if (size < need)
-      throw FormatError(fmt::format("truncated: {} bytes, where its variables' values alone take {}", size, need),
-                        {.file = path_});
+    if (size >= need) return {};
+    return fmt::format("truncated: {} bytes, where its variables' values alone take {}", size, need);
   }
 
   std::string path_;
