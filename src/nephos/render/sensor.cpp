@@ -13,7 +13,7 @@ namespace nephos::render {
 namespace {
 Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth::Vec3& up_hint, double fov_deg,
                 int width, int height) {
-  if (!(fov_deg > 0 && fov_deg < max_fov_deg))
+  if (!fov_in_range(fov_deg))
     throw ValueError(fmt::format("field of view {} deg must be in (0, {:g})", fov_deg, max_fov_deg), {.key = "fov"});
   if (width < 1 || height < 1) throw ValueError("image size must be positive", {.key = "size"});
   Sensor s;
@@ -72,8 +72,7 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
                            c.get_in("look_at_alt_m", 0.0, -earth::radius_m + 1, big)};
   // The limits Sensor::look_at() checks, here named as the file's keys.
   const double fov = need("fov_deg", -big, big);
-  if (!(fov > 0 && fov < max_fov_deg))
-    c.fail("fov_deg", fmt::format("must be in (0, {:g}), got {:g}", max_fov_deg, fov));
+  if (!fov_in_range(fov)) c.fail("fov_deg", fmt::format("must be in (0, {:g}), got {:g}", max_fov_deg, fov));
   if (glm::length(earth::ecef(to) - earth::ecef(from)) < min_look_at_distance_m)
     c.fail("look_at_lat_deg",
            fmt::format("the look-at target lies within {:g} m of the camera's position", min_look_at_distance_m));

@@ -14,6 +14,7 @@ namespace nephos::render {
 inline constexpr double geostationary_altitude_m = 35786e3;
 /// A pinhole's horizontal field of view lies in (0, max_fov_deg) [deg].
 inline constexpr double max_fov_deg = 179;
+inline constexpr bool fov_in_range(double fov_deg) { return fov_deg > 0 && fov_deg < max_fov_deg; }
 /// A look-at camera's target lies at least this far from it [m].
 inline constexpr double min_look_at_distance_m = 1;
 
