@@ -5,12 +5,15 @@
 # or undefined behaviour fails its test. The Python module's test runs with the sanitizer
 # runtimes preloaded into the (uninstrumented) interpreter, and without leak checks: CPython
 # keeps its objects alive at exit. A developer's check, not part of CI: the build
-# and the suite take ~15 min together on a two-core VM (Intel, 2026-11-27).
+# and the suite take ~25 min together on a two-core VM (Intel, 2026-11-29).
 #
 # Leaks are checked everywhere except in the tests that load Mesa's OpenGL driver (the sprite
 # renderer's and the command-line tests, which run `nephos fly`) or Open MPI (`mpirun`): both
 # keep allocations for the life of the process in plug-ins they unload before LeakSanitizer
-# reports, so these show as leaks from an unknown module that no suppression can name.
+# reports, so these show as leaks from an unknown module that no suppression can name. Nor in
+# the test of a damaged GRIB message: ecCodes' assertion handler is meant not to return, and the
+# error nephos throws from it leaves the buffer ecCodes was decoding into allocated (by design:
+# grib_reader.cpp, assertion_failed).
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 "$here/scripts/setup.sh" >/dev/null  # the packages (and the ordinary build)
@@ -23,7 +26,7 @@ cmake -S "$here" -B "$here/build-sanitize" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DN
 cmake --build "$here/build-sanitize" -j"$jobs"
 cd "$here/build-sanitize"
 export UBSAN_OPTIONS=print_stacktrace=1
-foreign='SpriteRendererGl|^cli$|^mpi$'  # Mesa or Open MPI loaded
+foreign='SpriteRendererGl|^cli$|^mpi$|DamagedPackingIsAnErrorNotAnAbort'  # Mesa or Open MPI loaded; ecCodes' abort
 status=0
 ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j"$jobs" -E "$foreign|^python$" "$@" || status=1
 ASAN_OPTIONS=detect_leaks=0 ctest --output-on-failure -j"$jobs" -R "$foreign" "$@" || status=1

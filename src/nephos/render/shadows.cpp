@@ -55,8 +55,8 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     out[i] = 0;
     if (chance) chance[i] = 0;
     if (first[i + 1] == first[i]) continue;
-    const double z_lo = *std::min_element(&lo[first[i]], &lo[first[i + 1]]);
-    const double z_hi = *std::max_element(&hi[first[i]], &hi[first[i + 1]]);
+    const double z_lo = *std::min_element(lo.data() + first[i], lo.data() + first[i + 1]);
+    const double z_hi = *std::max_element(hi.data() + first[i], hi.data() + first[i + 1]);
     if (!(z_lo <= z_hi)) continue;
     live.push_back(static_cast<std::uint32_t>(i));
     const auto [lo2, hi2] = clouds::window_squared_radii(z_lo, z_hi);

@@ -232,7 +232,9 @@ thread_local const std::filesystem::path* reading = nullptr;
 
 // ecCodes aborts the process when a damaged message breaks one of its internal assertions
 // (complex packing whose group counts overrun the values): instead, a FormatError naming the
-// file, thrown through ecCodes' frames (it is built with unwind tables) to the caller.
+// file, thrown through ecCodes' frames (it is built with unwind tables) to the caller. The
+// buffer ecCodes was decoding into is left allocated (a field's values: 84 KB at 2.5 degrees),
+// once per damaged message: the price of an error instead of the end of the process.
 void assertion_failed(const char* message) {
   throw FormatError(fmt::format("damaged GRIB data ({})", message),
                     {.file = reading ? reading->string() : std::string()});
