@@ -1047,7 +1047,8 @@ class Bench(unittest.TestCase):
         r = run("bench", "render", "--quick", "--repeat", "1")
         self.assertEqual(r.returncode, 0, r.stderr)
         for anchor in ("718", "195", "590", "458", "goal <=1", "peak resident memory", "field of view", "per marched ray", "CPU: ", "built for",
-                       "interleaved pairs", "(goal <= 1.30", "(goal <= 17)", "(goal <= 60 s; tracing the types"):
+                       "interleaved pairs", "(goal <= 1.30: -;", "(goal <= 17: -)", "(goal <= 60 s: -; tracing the types",
+                       "(goal <= 4096: -)", "< 1536 MiB: -)"):
             self.assertIn(anchor, r.stdout)
         # Every cloud type and their mean, the measure of the seed's table (an average per shell).
         # Table 3's rows: no verdict against the GTX 1650's times for quarter-size images.
