@@ -167,12 +167,12 @@ void print_abi_full_disc(const clouds::CloudScene& every, int step, const earth:
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   double tracing = 0;
   for (const auto& [type, seconds] : img.seconds_per_type) tracing += seconds;
+  const double peak = peak_rss_mib();
   std::cout << fmt::format(
       "ABI full disc on the fixed grid, {}x{} (2 km{}), every type, bands 7-16: {:.1f} s (goal <= 60 s: {}; tracing "
       "the types {:.1f} s, {:.0f} %), peak resident memory of the process so far {:.0f} MiB (goal <= 4096: {})\n",
       sensor.width, sensor.height, step > 1 ? fmt::format(" coarsened {}x: not comparable", step) : "", s,
-      verdict(s <= 60, step == 1), tracing, 100 * tracing / s, peak_rss_mib(),
-      verdict(peak_rss_mib() <= 4096, step == 1));
+      verdict(s <= 60, step == 1), tracing, 100 * tracing / s, peak, verdict(peak <= 4096, step == 1));
 }
 
 }  // namespace
