@@ -22,10 +22,6 @@
 namespace nephos::bench {
 namespace {
 
-// A goal's verdict beside its figure: "met" or "not met"; "-" where the figure is not the
-// goal's (--quick's smaller images).
-const char* verdict(bool met, bool comparable) { return !comparable ? "-" : met ? "met" : "not met"; }
-
 // One shell's pass: the median time over the repetitions [ms] and the rays it marched (the
 // same every repetition).
 struct ShellPass {

@@ -20,6 +20,10 @@ inline double percentile(std::vector<double> v, double p) {
 /// percentile(v, 0.5): for an even count, the upper of the two middle samples.
 inline double median(std::vector<double> v) { return percentile(std::move(v), 0.5); }
 
+/// A goal's verdict beside its figure: "met" or "not met"; "-" where the figure is not the
+/// goal's (a benchmark run at another size than the goal's).
+inline const char* verdict(bool met, bool comparable) { return !comparable ? "-" : met ? "met" : "not met"; }
+
 inline double mean(const std::vector<double>& v) {
   if (v.empty()) throw ValueError("a benchmark statistic of no samples (at least one run is needed)");
   double sum = 0;

@@ -1050,10 +1050,10 @@ class Bench(unittest.TestCase):
                        "interleaved pairs", "(goal <= 1.30: -;", "(goal <= 17: -)", "(goal <= 60 s: -; tracing the types",
                        "(goal <= 4096: -)", "< 1536 MiB: -)"):
             self.assertIn(anchor, r.stdout)
-        # Every cloud type and their mean, the measure of the seed's table (an average per shell).
         # Table 3's rows: no verdict against the GTX 1650's times for quarter-size images.
         rows = [l.split() for l in r.stdout.splitlines() if " x 3 " in l]
         self.assertEqual([row[-1] for row in rows], ["-"] * 4, r.stdout)
+        # Every cloud type and their mean, the measure of the seed's table (an average per shell).
         every = next(l for l in r.stdout.splitlines() if l.startswith("every cloud type"))
         for name in ("low_stratus", "low_cumulus", "altostratus", "cirrus", "mean"):
             self.assertIn(name, every)
@@ -1093,6 +1093,11 @@ class Bench(unittest.TestCase):
                        "ray casting 640x480", "3 s", "peak resident memory",
                        "FP16 storage", "CPU: ", "cores online", "built for"):
             self.assertIn(anchor, r.stdout)
+        # The goals are set at 128^3: no verdict at 32^3.
+        verdicts = re.findall(r"\(seed, G80: [^;]*; goal [^)]*: ([^)]*)\)|goal >= 70 %: ([^)]*)\)|< 2048 MiB: ([^)]*)\)",
+                              r.stdout)
+        self.assertEqual(len(verdicts), 7, r.stdout)
+        self.assertEqual({v for t in verdicts for v in t if v}, {"-"})
 
     def test_lbm_bench_kernel_selection(self):
         r = run("bench", "lbm", "--size", "32", "--repeat", "2", "--kernels", "bgk,water16")
