@@ -101,15 +101,22 @@ constexpr std::size_t checked_header_bytes = sizeof magic + 4 * sizeof(std::int6
 // ((c q + i) cells + cell) floats.
 constexpr std::size_t checkpoint_header_bytes = checked_header_bytes + sizeof(std::uint64_t);
 
+// The header's checked bytes as they lie in the file: magic, grid and step, parameters.
+using HeaderBytes = std::array<char, checked_header_bytes>;
+HeaderBytes header_bytes(const char (&m)[16], const std::int64_t (&hdr)[4],
+                         const std::array<double, param_count>& params) {
+  HeaderBytes bytes;
+  std::memcpy(bytes.data(), m, sizeof m);
+  std::memcpy(bytes.data() + sizeof m, hdr, sizeof hdr);
+  std::memcpy(bytes.data() + sizeof m + sizeof hdr, params.data(), sizeof params);
+  return bytes;
+}
+
 void write_checkpoint_header(std::ostream& os, const CheckpointHeader& h) {
-  char bytes[checked_header_bytes];
-  std::memcpy(bytes, magic, sizeof magic);
   const std::int64_t hdr[4] = {h.grid.nx, h.grid.ny, h.grid.nz, h.step};
-  std::memcpy(bytes + sizeof magic, hdr, sizeof hdr);
-  const auto params = params_to_array(h.params);
-  std::memcpy(bytes + sizeof magic + sizeof hdr, params.data(), sizeof params);
-  const std::uint64_t sum = checksum(bytes, sizeof bytes);
-  os.write(bytes, sizeof bytes);
+  const HeaderBytes bytes = header_bytes(magic, hdr, params_to_array(h.params));
+  const std::uint64_t sum = checksum(bytes.data(), bytes.size());
+  os.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
   os.write(reinterpret_cast<const char*>(&sum), sizeof sum);
 }
 // Where population i of component c of global cell `cell` lies among a checkpoint's populations
@@ -123,9 +130,12 @@ std::size_t row_checksum_index(int c, int i, const Grid3& g, int y, int z) {
   return ((static_cast<std::size_t>(c) * d3q19::q + static_cast<std::size_t>(i)) * g.nz + z) * g.ny + y;
 }
 std::size_t population_bytes(const Grid3& g) { return 2 * d3q19::q * g.cells() * sizeof(float); }
+// Lattice rows: one per component, direction, z and y; the row checksums' count.
+std::size_t row_count(const Grid3& g) {
+  return 2 * d3q19::q * static_cast<std::size_t>(g.ny) * static_cast<std::size_t>(g.nz);
+}
 std::size_t checkpoint_bytes(const Grid3& g) {
-  const std::size_t rows = 2 * d3q19::q * static_cast<std::size_t>(g.ny) * static_cast<std::size_t>(g.nz);
-  return checkpoint_header_bytes + population_bytes(g) + rows * sizeof(std::uint64_t);
+  return checkpoint_header_bytes + population_bytes(g) + row_count(g) * sizeof(std::uint64_t);
 }
 // The checksums of `rows` consecutive rows of nx values each.
 void row_checksums(const float* values, int rows, int nx, std::uint64_t* out) {
@@ -148,7 +158,7 @@ void write_checkpoint(const std::filesystem::path& path, const CheckpointHeader&
     write_checkpoint_header(os, h);
     const Grid3& g = h.grid;
     std::vector<float> values(g.cells());
-    std::vector<std::uint64_t> sums(2 * d3q19::q * static_cast<std::size_t>(g.ny) * g.nz);
+    std::vector<std::uint64_t> sums(row_count(g));
     for (int c = 0; c < 2; ++c)
       for (int i = 0; i < d3q19::q; ++i) {
         direction(c, i, values.data());
@@ -182,13 +192,10 @@ CheckpointHeader read_checkpoint_header(std::ifstream& is, const std::filesystem
   is.read(reinterpret_cast<char*>(params.data()),
           static_cast<std::streamsize>((format == 2 ? param_count - 1 : param_count) * sizeof(double)));
   if (format == 4) {  // the checksum of the bytes read so far
-    char bytes[checked_header_bytes];
-    std::memcpy(bytes, m, sizeof m);
-    std::memcpy(bytes + sizeof m, hdr, sizeof hdr);
-    std::memcpy(bytes + sizeof m + sizeof hdr, params.data(), sizeof params);
+    const HeaderBytes bytes = header_bytes(m, hdr, params);
     std::uint64_t sum = 0;
     is.read(reinterpret_cast<char*>(&sum), sizeof sum);
-    if (is && sum != checksum(bytes, sizeof bytes))
+    if (is && sum != checksum(bytes.data(), bytes.size()))
       throw FormatError("corrupt checkpoint header (it does not match its checksum)", {.file = path.string()});
   }
   if (!is || hdr[0] < 4 || hdr[1] < 4 || hdr[2] < 4 || hdr[0] > 4096 || hdr[1] > 4096 || hdr[2] > 4096 || hdr[3] < 0)
@@ -224,8 +231,8 @@ std::vector<std::uint64_t> read_row_checksums(std::ifstream& is, const std::file
 // their checksums (none: older formats).
 void verify_rows(const std::uint64_t* sums, std::size_t rows, const float* values, const CheckpointHeader& h, int c,
                  int i, int z, int y0, const std::filesystem::path& path) {
+  const std::size_t nx = static_cast<std::size_t>(h.grid.nx);
   for (std::size_t r = 0; r < rows; ++r) {
-    const std::size_t nx = static_cast<std::size_t>(h.grid.nx);
     if (checksum(values + r * nx, nx * sizeof(float)) != sums[r])
       throw FormatError(fmt::format("corrupt checkpoint: the populations of component {}, direction {}, row y = {}, "
                                     "z = {} do not match their checksum",
@@ -253,7 +260,7 @@ WaterModel WaterModel::load(const std::filesystem::path& path) {
   // CK4: every row's checksum (8 bytes per row of nx populations: 2/nx of their size).
   std::vector<std::uint64_t> sums;
   if (h.format == 4) {
-    sums = read_row_checksums(is, path, h, populations, 0, 2 * d3q19::q * static_cast<std::size_t>(g.ny) * g.nz);
+    sums = read_row_checksums(is, path, h, populations, 0, row_count(g));
     is.seekg(populations);
   }
   WaterModel w(g, h.params);
