@@ -48,6 +48,33 @@ class Info(unittest.TestCase):
             p.write_text("temperature 12 C\n")
             self.assert_input_error(run("info", p), str(p), "not a GRIB file")
 
+    def test_damaged_bitmap_is_one_line(self):
+        # One bit flipped in the bitmap of the embedded sample's t at the high cloud top: ecCodes
+        # finds fewer coded values than the bitmap's set bits and prints its own error on stderr
+        # unless nephos takes its messages (to -v's debug log): one line, naming the field.
+        data = bytearray(SAMPLE.read_bytes())
+        offset = 2345934
+        self.assertEqual(data[offset], 0x63, "the embedded sample changed: find the bitmap's byte again")
+        data[offset] ^= 0x10
+        with tempfile.TemporaryDirectory() as d:
+            p = Path(d) / "damaged.grib2"
+            p.write_bytes(bytes(data))
+            self.assert_input_error(run("info", p), str(p), "t@highCloudTop", "cannot decode values")
+            r = run("-v", "info", p)
+            self.assertIn("ecCodes error: ", r.stderr)  # the detail, at debug level
+            self.assertIn("does not match bitmap", r.stderr)
+
+    def test_damaged_copies_end_as_the_contract_says(self):
+        # CI's small run of scripts/fuzz_grib.py (docs/weather.md: its full runs): each damaged
+        # copy exits 0, or 2 with one error line, in time.
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run(["/usr/bin/python3", SOURCE / "scripts" / "fuzz_grib.py", NEPHOS, "--runs", "60",
+                                "--seed", "8", "--commands", "info,masks", "--damage", "header,cut", "--timeout", "60",
+                                "--out", d],
+                               capture_output=True, text=True, timeout=900)
+            self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+            self.assertIn("60 runs, 0 failed", r.stdout)
+
     def test_surface_only_grib(self):
         with tempfile.TemporaryDirectory() as d:
             p = Path(d) / "surface.grib2"

@@ -31,17 +31,22 @@ void civil_from_days(std::int64_t z, int& y, int& m, int& d) {
 }
 }  // namespace
 
-UtcTime UtcTime::from_civil(int year, int month, int day, int hour, int minute, int second) {
+std::optional<UtcTime> UtcTime::try_from_civil(int year, int month, int day, int hour, int minute, int second) {
   const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
   static constexpr int month_days[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
   const int days = month < 1 || month > 12 ? 0 : month_days[month - 1] + (month == 2 && leap);
   if (month < 1 || month > 12 || day < 1 || day > days || hour < 0 || hour > 23 || minute < 0 || minute > 59 ||
       second < 0 || second > 60)
-    throw ValueError(fmt::format("invalid calendar date/time {:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:02d}", year, month,
-                                 day, hour, minute, second),
-                     {.key = "time"});
-  return {days_from_civil(year, static_cast<unsigned>(month), static_cast<unsigned>(day)) * 86400 + hour * 3600 +
-          minute * 60 + second};
+    return std::nullopt;
+  return UtcTime{days_from_civil(year, static_cast<unsigned>(month), static_cast<unsigned>(day)) * 86400 + hour * 3600 +
+                 minute * 60 + second};
+}
+
+UtcTime UtcTime::from_civil(int year, int month, int day, int hour, int minute, int second) {
+  if (const auto t = try_from_civil(year, month, day, hour, minute, second)) return *t;
+  throw ValueError(fmt::format("invalid calendar date/time {:04d}-{:02d}-{:02d} {:02d}:{:02d}:{:02d}", year, month, day,
+                               hour, minute, second),
+                   {.key = "time"});
 }
 
 UtcTime UtcTime::parse(const std::string& text) {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <set>
@@ -18,6 +19,7 @@
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
+#include "nephos/weather/grib2_sections.hpp"
 #include "nephos/weather/grib_reader.hpp"
 
 namespace nephos::weather {
@@ -124,7 +126,8 @@ Geometry compute_geometry(codes_handle* h, size_t n, long ni, long nj, const std
 // One message's values on the normalised grid.
 struct Decoded {
   LatLonGrid grid;
-  std::vector<float> values;  // nlat*nlon, j south->north, i east from lon0; NaN = missing
+  std::vector<float> values;    // nlat*nlon, j south->north, i east from lon0; NaN = missing
+  std::size_t undecodable = 0;  // points the message does not mark missing whose value is no number
 };
 
 Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::string& field,
@@ -159,8 +162,42 @@ Decoded decode_regular_ll(codes_handle* h, const std::string& file, const std::s
   d.grid = geo.grid;
   d.values.assign(n, std::numeric_limits<float>::quiet_NaN());
   for (size_t p = 0; p < n; ++p)
-    if (!(has_bitmap && vals[p] == missing)) d.values[geo.destination[p]] = static_cast<float>(vals[p]);
+    if (!(has_bitmap && vals[p] == missing)) {
+      d.values[geo.destination[p]] = static_cast<float>(vals[p]);
+      d.undecodable += std::isnan(vals[p]);
+    }
   return d;
+}
+
+// The range a quantity can physically take, in its stored unit (weather_grid.cpp's tables).
+struct ValidRange {
+  float min, max;
+  const char* units;
+};
+constexpr ValidRange cloud_cover_range{-0.01f, 1.01f, "1"};
+constexpr ValidRange orography_range{-1000, 10000, "m"};  // the Dead Sea's shore is at -430 m
+
+// A field's values (scaled to the stored unit) against the range its quantity can take: one
+// outside it, or one that decodes to no number, is damaged data (a bit flipped in the packing's
+// reference value, for instance), refused with the first such point.
+void check_range(const Decoded& d, const ValidRange& r, const std::string& file, const std::string& field) {
+  std::size_t outside = 0, first = 0;
+  for (std::size_t p = 0; p < d.values.size(); ++p) {
+    const float v = d.values[p];
+    if (!std::isnan(v) && !(v >= r.min && v <= r.max) && outside++ == 0) first = p;
+  }
+  if (d.undecodable > 0)
+    throw FormatError(
+        fmt::format("{} of its {} values decode to no number (damaged data)", d.undecodable, d.values.size()),
+        {.file = file, .field = field});
+  if (outside == 0) return;
+  const auto j = static_cast<int>(first / static_cast<std::size_t>(d.grid.nlon));
+  const auto i = static_cast<int>(first % static_cast<std::size_t>(d.grid.nlon));
+  throw FormatError(
+      fmt::format("{} of its {} values lie outside {:g}..{:g} {}, the range it can take (damaged "
+                  "data?), e.g. {:g} at {:g} N {:g} E",
+                  outside, d.values.size(), r.min, r.max, r.units, d.values[first], d.grid.lat(j), d.grid.lon(i)),
+      {.file = file, .field = field});
 }
 
 // ECMWF's models (IFS, ERA5) give geopotential z [m2 s-2] where NCEP's give geopotential
@@ -221,10 +258,42 @@ std::optional<CloudLayer> cloud_layer_for(const std::string& level_type) {
   return std::nullopt;
 }
 
-UtcTime time_from(long yyyymmdd, long hhmm) {
-  return UtcTime::from_civil(static_cast<int>(yyyymmdd / 10000), static_cast<int>(yyyymmdd / 100 % 100),
-                             static_cast<int>(yyyymmdd % 100), static_cast<int>(hhmm / 100),
-                             static_cast<int>(hhmm % 100));
+// The instant of a GRIB date (yyyymmdd) and time (hhmm); a FormatError naming the file, the field
+// and which time it is (`what`) if they are no calendar date and time of day.
+UtcTime time_from(long yyyymmdd, long hhmm, const std::string& file, const std::string& field, const char* what) {
+  if (const auto t = UtcTime::try_from_civil(static_cast<int>(yyyymmdd / 10000), static_cast<int>(yyyymmdd / 100 % 100),
+                                             static_cast<int>(yyyymmdd % 100), static_cast<int>(hhmm / 100),
+                                             static_cast<int>(hhmm % 100)))
+    return *t;
+  throw FormatError(
+      fmt::format("field '{}' has {} {:08d} {:04d}, no calendar date and time", field, what, yyyymmdd, hhmm),
+      {.file = file});
+}
+
+// Whether `unit` is a unit of time a forecast step may be given in: GRIB1's code table 4 (with
+// ECMWF's 13, 15 minutes, and 14, 30 minutes) or GRIB2's code table 4.4. From any other code
+// ecCodes 2.28 computes no validity time: it loops forever (GRIB2 255, 16, 41, ...) or divides by
+// zero (GRIB1 16, 39, ...), so such a field is refused before it is asked for one.
+bool known_time_unit(long edition, long unit) {
+  if ((unit >= 0 && unit <= 7) || (unit >= 10 && unit <= 13)) return true;
+  return edition == 1 && (unit == 14 || unit == 254);
+}
+
+// A field's validity time (ecCodes' validityDate and validityTime), its unit of time first checked.
+UtcTime validity_time(codes_handle* h, const std::string& file, const std::string& field) {
+  const long edition = get_long(h, "editionNumber"), unit = get_long(h, "indicatorOfUnitOfTimeRange", 1);
+  if (!known_time_unit(edition, unit))
+    throw FormatError(fmt::format("field '{}' gives its forecast time in units of code {}, which GRIB{}'s code "
+                                  "table {} does not define",
+                                  field, unit, edition, edition == 1 ? "4" : "4.4"),
+                      {.file = file});
+  long date = 0, time = 0;
+  int err = codes_get_long(h, "validityDate", &date);
+  if (err == 0) err = codes_get_long(h, "validityTime", &time);
+  if (err != 0)
+    throw FormatError(fmt::format("field '{}' has no validity time: {}", field, codes_get_error_message(err)),
+                      {.file = file});
+  return time_from(date, time, file, field, "the validity time");
 }
 
 // The file being read, for assertion_failed().
@@ -240,6 +309,12 @@ void assertion_failed(const char* message) {
                     {.file = reading ? reading->string() : std::string()});
 }
 
+// ecCodes' own messages (it prints an error it then returns as a code, which the caller reports
+// in its one line naming the file and field) at debug level (-v), not on stderr beside that line.
+void eccodes_message(const codes_context*, int level, const char* message) {
+  spdlog::debug("ecCodes{}: {}", level == GRIB_LOG_ERROR || level == GRIB_LOG_FATAL ? " error" : "", message);
+}
+
 // ecCodes keeps the position within a multi-field message per FILE*, in its default context;
 // the state is dropped when the file is done with (also on an exception), so that a later file
 // opened at the same address starts afresh. Weather files are read from one thread. The scope
@@ -251,6 +326,7 @@ struct MultiFieldScope {
     static const bool on = [] {
       codes_grib_multi_support_on(nullptr);
       codes_set_codes_assertion_failed_proc(assertion_failed);
+      codes_context_set_logging_proc(codes_context_get_default(), eccodes_message);
       return true;
     }();
     (void)on;
@@ -264,9 +340,32 @@ struct MultiFieldScope {
   MultiFieldScope& operator=(const MultiFieldScope&) = delete;
 };
 
+// Every GRIB2 message's section structure, checked before ecCodes parses any of them
+// (grib2_sections.hpp): each message's bytes as ecCodes' reader frames them (it skips what lies
+// between messages). A message it cannot frame (cut short, or stating a length no memory holds)
+// is an error too, so that no message after it is parsed unchecked.
+void check_sections(const std::filesystem::path& path) {
+  auto file = open_file(path);
+  for (int k = 1;; ++k) {
+    std::size_t size = 0;
+    off_t offset = 0;
+    int err = 0;
+    const std::unique_ptr<unsigned char, decltype(&std::free)> message(
+        static_cast<unsigned char*>(wmo_read_grib_from_file_malloc(file.get(), 0, &size, &offset, &err)), &std::free);
+    if (err == GRIB_END_OF_FILE) return;
+    if (err != 0 || !message)
+      throw FormatError(fmt::format("GRIB message {} is corrupt: {}", k, codes_get_error_message(err)),
+                        {.file = path.string()});
+    if (const std::string e = grib2_section_error(message.get(), size); !e.empty())
+      throw FormatError(fmt::format("GRIB message {} (at byte {}) is corrupt: it {}", k, offset, e),
+                        {.file = path.string()});
+  }
+}
+
 // Calls fn(handle, field number) for every field of every message, in file order.
 template <class Fn>
 void for_each_field(const std::filesystem::path& path, Fn&& fn) {
+  check_sections(path);
   auto file = open_file(path);
   const MultiFieldScope multi(file.get(), path);
   int count = 0;
@@ -362,13 +461,16 @@ class GribReader final : public WeatherReader {
       const auto field = field_for(sn);
       const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
       if (!on_pressure_level) held.insert(sn + "/" + lt);
-      auto valid_time = [h] { return time_from(get_long(h, "validityDate"), get_long(h, "validityTime")); };
-      // The field's values on the file's one grid, in nephos's unit (scale_for).
-      auto values = [&](const std::string& name, const std::string& grid_field) {
+      auto valid_time = [&] { return validity_time(h, file, sn + "@" + lt); };
+      // The field's values on the file's one grid, in nephos's unit (scale_for, then `scale`),
+      // checked against the range they can take.
+      auto values = [&](const std::string& name, const std::string& grid_field, const ValidRange& range,
+                        float scale = 1.0f) {
         Decoded d = decode_regular_ll(h, file, name, geometry_cache);
         check_grid(d.grid, grid_field);
-        if (const float s = scale_for(sn); s != 1.0f)
+        if (const float s = scale_for(sn) * scale; s != 1.0f)
           for (float& v : d.values) v *= s;
+        check_range(d, range, file, name);
         return std::move(d.values);
       };
       if (on_pressure_level) {
@@ -381,7 +483,8 @@ class GribReader final : public WeatherReader {
         }
         TimeSlice& slice = slices[vt];
         if (slice.pending.empty()) {
-          slice.meta.reference_time = time_from(get_long(h, "dataDate"), get_long(h, "dataTime"));
+          slice.meta.reference_time =
+              time_from(get_long(h, "dataDate"), get_long(h, "dataTime"), file, sn + "@" + lt, "the reference time");
           slice.meta.valid_time = vt;
           slice.meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
           slice.meta.producer = get_string(h, "centre");
@@ -393,18 +496,18 @@ class GribReader final : public WeatherReader {
           spdlog::warn("{}: duplicate message for {} at {}; keeping the first", file, name, vt.iso());
           return;
         }
-        slice.pending.push_back({*field, p, values(name, name)});
+        const FieldInfo& fi = info(*field);
+        slice.pending.push_back({*field, p, values(name, name, {fi.valid_min, fi.valid_max, fi.units})});
       } else if (sn == "tcc") {
-        if (auto layer = cloud_layer_for(lt)) slices[valid_time()].cloud[*layer] = values("tcc@" + lt, "tcc");
+        if (auto layer = cloud_layer_for(lt))
+          slices[valid_time()].cloud[*layer] = values("tcc@" + lt, "tcc", cloud_cover_range);
       } else if (const auto layer = ecmwf_cloud_layer(sn, lt)) {  // already a fraction
-        slices[valid_time()].cloud[*layer] = values(sn, sn);
+        slices[valid_time()].cloud[*layer] = values(sn, sn, cloud_cover_range);
       } else if (orography_field(sn, lt) && orography.empty()) {
-        orography = values(sn, sn);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
+        orography = values(sn, sn, orography_range);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
       } else if (const auto sf = surface_field_for(sn, lt)) {
-        std::vector<float> v = values(sn + "@" + lt, sn);
-        if (const float s = info(*sf).scale; s != 1.0f)
-          for (float& x : v) x *= s;
-        slices[valid_time()].surface[*sf] = std::move(v);
+        const SurfaceFieldInfo& si = info(*sf);
+        slices[valid_time()].surface[*sf] = values(sn + "@" + lt, sn, {si.valid_min, si.valid_max, si.units}, si.scale);
       }
     });
 

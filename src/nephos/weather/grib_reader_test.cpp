@@ -186,6 +186,74 @@ TEST_F(GribReaderTest, DamagedPackingIsAnErrorNotAnAbort) {
   EXPECT_EQ(open_weather(sample).metadata().valid_time.iso(), "2011-01-15T12:00:00Z");
 }
 
+// The embedded sample with `bytes` written at `offset`, where it held `was` (checked, so that a
+// changed sample fails here, not silently); the FormatError reading it throws.
+std::string error_reading_sample_with(const std::filesystem::path& p, std::size_t offset, const std::string& was,
+                                      const std::string& bytes) {
+  const auto sample = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
+  std::ifstream in(sample, std::ios::binary);
+  std::string data(std::istreambuf_iterator<char>(in), {});
+  if (data.compare(offset, was.size(), was) != 0) return "the embedded sample changed: find the bytes again";
+  data.replace(offset, bytes.size(), bytes);
+  std::ofstream(p, std::ios::binary) << data;
+  try {
+    open_weather(p);
+  } catch (const FormatError& e) {
+    return e.context().file == p.string() ? e.what() : "the error does not name the file";
+  }
+  return "the damaged file was read";
+}
+
+// Damage ecCodes 2.28 does not survive, each found by changing bytes of the sample at random
+// (docs/weather.md, damaged files): refused with a FormatError before ecCodes meets it.
+TEST_F(GribReaderTest, SectionShorterThanItsFixedPartIsAnErrorNotAnAbort) {
+  // The second message's section 6 (the bitmap section) said to be 2 bytes long: ecCodes
+  // overruns its buffer and the process aborts (double free) when the handle is deleted.
+  const std::string e = error_reading_sample_with(file("s6.grib2"), 16491, std::string("\0\0\0\x06\x06", 5),
+                                                  std::string("\0\0\0\x02", 4));
+  EXPECT_NE(e.find("GRIB message 2 (at byte 16299) is corrupt: it has a section 6 of 2 bytes"), std::string::npos) << e;
+}
+
+TEST_F(GribReaderTest, MessageCutShortIsNamed) {
+  // The sample cut at 1 000 000 bytes, inside its 91st message: no message after a damaged one
+  // is parsed unchecked.
+  const auto sample = std::filesystem::path(NEPHOS_SOURCE_DIR) / "data/gfs_20110110_12z_f120_2p5deg.grib2";
+  std::ifstream in(sample, std::ios::binary);
+  std::string data(std::istreambuf_iterator<char>(in), {});
+  const auto p = file("cut.grib2");
+  std::ofstream(p, std::ios::binary) << data.substr(0, 1000000);
+  try {
+    open_weather(p);
+    FAIL() << "the cut file was read";
+  } catch (const FormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("GRIB message 91 is corrupt: End of resource reached"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(GribReaderTest, MoreGroupsThanValuesIsAnErrorNotACrash) {
+  // Message 75's number of groups (section 5 octets 32-35) with its top bit set: ecCodes reads
+  // far past the message (SIGSEGV).
+  const std::string e =
+      error_reading_sample_with(file("ng.grib2"), 796104 + 143 + 31, std::string("\0\0", 2), std::string("\x80", 1));
+  EXPECT_NE(e.find("groups for 10512 values"), std::string::npos) << e;
+}
+
+TEST_F(GribReaderTest, UnknownUnitOfTimeIsAnErrorNotAHang) {
+  // Message 196 (t at the tropopause) gives its forecast time in units of code 41, which GRIB2's
+  // code table 4.4 does not define: ecCodes 2.28 computes its validityTime forever.
+  const std::string e = error_reading_sample_with(file("unit.grib2"), 2282793, "\x01", "\x29");
+  EXPECT_NE(e.find("field 't@tropopause' gives its forecast time in units of code 41"), std::string::npos) << e;
+}
+
+TEST_F(GribReaderTest, ValuesOutsideTheirQuantitysRangeAreAnError) {
+  // t at 500 hPa with its packing's reference value (section 5 octets 12-15) made 1.7e38: every
+  // value decodes far outside 100-400 K.
+  const std::string e =
+      error_reading_sample_with(file("ref.grib2"), 958823, "\x45\x0b\xd0\x00", std::string("\x7f\0\0\0", 4));
+  EXPECT_NE(e.find("field 't@500hPa': 10512 of its 10512 values lie outside 100..400 K"), std::string::npos) << e;
+}
+
 TEST_F(GribReaderTest, SurfaceOnlyFileHasNoPressureLevels) {
   const auto p = file("sfc.grib2");
   testing::append_grib(p, GribGridSpec{}, "2t", "surface", 0, [](double, double) { return 280.0; });

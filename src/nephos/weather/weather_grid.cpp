@@ -15,14 +15,14 @@ namespace nephos::weather {
 
 const std::array<FieldInfo, field_count>& all_fields() {
   static const std::array<FieldInfo, field_count> table{{
-      {Field::geopotential_height, "gh", "gpm", "geopotential height", true},
-      {Field::temperature, "t", "K", "air temperature", true},
-      {Field::relative_humidity, "r", "1", "relative humidity", true},
-      {Field::omega, "w", "Pa s-1", "vertical velocity (omega, positive = sinking)", true},
-      {Field::u_wind, "u", "m s-1", "eastward wind", true},
-      {Field::v_wind, "v", "m s-1", "northward wind", true},
-      {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate (liquid + ice) mixing ratio", false},
-      {Field::ozone, "o3mr", "kg kg-1", "ozone mixing ratio", false},
+      {Field::geopotential_height, "gh", "gpm", "geopotential height", true, -2000, 120000},
+      {Field::temperature, "t", "K", "air temperature", true, 100, 400},
+      {Field::relative_humidity, "r", "1", "relative humidity", true, -0.05f, 2},
+      {Field::omega, "w", "Pa s-1", "vertical velocity (omega, positive = sinking)", true, -200, 200},
+      {Field::u_wind, "u", "m s-1", "eastward wind", true, -300, 300},
+      {Field::v_wind, "v", "m s-1", "northward wind", true, -300, 300},
+      {Field::cloud_water, "clwmr", "kg kg-1", "cloud condensate (liquid + ice) mixing ratio", false, -1e-3f, 0.1f},
+      {Field::ozone, "o3mr", "kg kg-1", "ozone mixing ratio", false, -1e-5f, 1e-3f},
   }};
   return table;
 }
@@ -32,27 +32,31 @@ const FieldInfo& info(Field f) { return all_fields()[static_cast<std::size_t>(f)
 const std::array<SurfaceFieldInfo, surface_field_count>& all_surface_fields() {
   using S = SurfaceField;
   static const std::array<SurfaceFieldInfo, surface_field_count> table{{
-      {S::land_fraction, "lsm", "surface", "1", 1.0f, "land fraction"},
-      {S::sea_ice_fraction, "ci", "surface", "1", 1.0f, "sea-ice fraction"},
-      {S::snow_water_equivalent, "sdwe", "surface", "kg m-2", 1.0f, "snow water equivalent"},
-      {S::skin_temperature, "t", "surface", "K", 1.0f, "skin temperature"},
-      {S::surface_albedo, "al", "surface", "1", 0.01f, "surface albedo (6-hour mean)"},
-      {S::u10, "10u", "heightAboveGround", "m s-1", 1.0f, "eastward wind at 10 m"},
-      {S::v10, "10v", "heightAboveGround", "m s-1", 1.0f, "northward wind at 10 m"},
-      {S::surface_pressure, "sp", "surface", "Pa", 1.0f, "surface pressure"},
-      {S::precipitable_water, "pwat", "atmosphereSingleLayer", "kg m-2", 1.0f, "precipitable water"},
-      {S::total_ozone, "tozne", "atmosphereSingleLayer", "DU", 1.0f, "total column ozone"},
-      {S::tropopause_pressure, "trpp", "tropopause", "Pa", 1.0f, "tropopause pressure"},
-      {S::tropopause_temperature, "t", "tropopause", "K", 1.0f, "tropopause temperature"},
-      {S::low_cloud_top_pressure, "pres", "lowCloudTop", "Pa", 1.0f, "low cloud top pressure (6-hour mean)"},
-      {S::middle_cloud_top_pressure, "pres", "middleCloudTop", "Pa", 1.0f, "middle cloud top pressure (6-hour mean)"},
-      {S::high_cloud_top_pressure, "pres", "highCloudTop", "Pa", 1.0f, "high cloud top pressure (6-hour mean)"},
-      {S::convective_cloud_top_pressure, "pres", "convectiveCloudTop", "Pa", 1.0f, "convective cloud top pressure"},
-      {S::high_cloud_top_temperature, "t", "highCloudTop", "K", 1.0f, "high cloud top temperature (6-hour mean)"},
+      {S::land_fraction, "lsm", "surface", "1", 1.0f, "land fraction", -0.01f, 1.01f},
+      {S::sea_ice_fraction, "ci", "surface", "1", 1.0f, "sea-ice fraction", -0.01f, 1.01f},
+      {S::snow_water_equivalent, "sdwe", "surface", "kg m-2", 1.0f, "snow water equivalent", -1, 1e6f},
+      {S::skin_temperature, "t", "surface", "K", 1.0f, "skin temperature", 100, 400},
+      {S::surface_albedo, "al", "surface", "1", 0.01f, "surface albedo (6-hour mean)", -0.01f, 1.01f},
+      {S::u10, "10u", "heightAboveGround", "m s-1", 1.0f, "eastward wind at 10 m", -150, 150},
+      {S::v10, "10v", "heightAboveGround", "m s-1", 1.0f, "northward wind at 10 m", -150, 150},
+      {S::surface_pressure, "sp", "surface", "Pa", 1.0f, "surface pressure", 20000, 120000},
+      {S::precipitable_water, "pwat", "atmosphereSingleLayer", "kg m-2", 1.0f, "precipitable water", -1, 250},
+      {S::total_ozone, "tozne", "atmosphereSingleLayer", "DU", 1.0f, "total column ozone", 50, 1000},
+      {S::tropopause_pressure, "trpp", "tropopause", "Pa", 1.0f, "tropopause pressure", 100, 120000},
+      {S::tropopause_temperature, "t", "tropopause", "K", 1.0f, "tropopause temperature", 100, 400},
+      {S::low_cloud_top_pressure, "pres", "lowCloudTop", "Pa", 1.0f, "low cloud top pressure (6-hour mean)", 0, 120000},
+      {S::middle_cloud_top_pressure, "pres", "middleCloudTop", "Pa", 1.0f, "middle cloud top pressure (6-hour mean)", 0,
+       120000},
+      {S::high_cloud_top_pressure, "pres", "highCloudTop", "Pa", 1.0f, "high cloud top pressure (6-hour mean)", 0,
+       120000},
+      {S::convective_cloud_top_pressure, "pres", "convectiveCloudTop", "Pa", 1.0f, "convective cloud top pressure", 0,
+       120000},
+      {S::high_cloud_top_temperature, "t", "highCloudTop", "K", 1.0f, "high cloud top temperature (6-hour mean)", 100,
+       400},
       {S::toa_outgoing_longwave, "ulwrf", "nominalTop", "W m-2", 1.0f,
-       "outgoing long-wave flux at the top of the atmosphere (6-hour mean)"},
+       "outgoing long-wave flux at the top of the atmosphere (6-hour mean)", 0, 1000},
       {S::toa_outgoing_shortwave, "uswrf", "nominalTop", "W m-2", 1.0f,
-       "outgoing short-wave flux at the top of the atmosphere (6-hour mean)"},
+       "outgoing short-wave flux at the top of the atmosphere (6-hour mean)", 0, 1600},
   }};
   return table;
 }

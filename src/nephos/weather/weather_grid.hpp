@@ -41,6 +41,9 @@ struct FieldInfo {
   const char* units;            ///< units as stored in WeatherGrid
   const char* long_name;
   bool required;  ///< required for a complete weather description
+  /// The range a value can physically take, in `units` (CF's valid_min, valid_max), wide of
+  /// every extreme of the real atmosphere: a file's value outside it is damaged data.
+  float valid_min, valid_max;
 };
 const FieldInfo& info(Field f);
 const std::array<FieldInfo, field_count>& all_fields();
@@ -77,6 +80,7 @@ struct SurfaceFieldInfo {
   const char* units;            ///< units as stored in WeatherGrid
   float scale;                  ///< GRIB unit -> stored unit
   const char* long_name;
+  float valid_min, valid_max;  ///< as FieldInfo's, in `units`
 };
 const SurfaceFieldInfo& info(SurfaceField f);
 const std::array<SurfaceFieldInfo, surface_field_count>& all_surface_fields();
