@@ -18,7 +18,6 @@ Usage: scripts/fuzz_grib.py NEPHOS [--weather FILE] [--runs N] [--seed S] [--com
                             [--damage flip,header,cut,zero,splice] [--timeout SECONDS] [--out DIR]
 """
 import argparse
-import os
 import random
 import subprocess
 import sys

@@ -12,8 +12,10 @@ namespace nephos::weather {
 /// when it is sound. Checked: section 0 (16 bytes, "GRIB", edition 2, the total length equal to
 /// `size`); then sections 1 to 7, each a 4-byte big-endian length and its number, in the order
 /// 1, (2), 3, 4, 5, 6, 7 with 2-7, 3-7 or 4-7 repeated for each further field, each at least
-/// its fixed part long and within the message; and the end "7777" right after the last section 7.
-/// A message of another edition (GRIB1) is not checked: empty.
+/// its fixed part long and within the message; the end "7777" right after the last section 7;
+/// and per field, the simple and complex packings' values and group descriptors (templates 5.0,
+/// 5.2, 5.3) within section 7, no more groups than values, and a bitmap covering section 3's
+/// grid. A message of another edition (GRIB1) is not checked: empty.
 /// @param message the message's bytes, from its "GRIB"
 /// @param size    its length in bytes [B]
 std::string grib2_section_error(const unsigned char* message, std::size_t size);
