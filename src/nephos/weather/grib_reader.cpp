@@ -181,15 +181,15 @@ constexpr ValidRange orography_range{-1000, 10000, "m"};  // the Dead Sea's shor
 // outside it, or one that decodes to no number, is damaged data (a bit flipped in the packing's
 // reference value, for instance), refused with the first such point.
 void check_range(const Decoded& d, const ValidRange& r, const std::string& file, const std::string& field) {
+  if (d.undecodable > 0)
+    throw FormatError(
+        fmt::format("{} of its {} values decode to no number (damaged data)", d.undecodable, d.values.size()),
+        {.file = file, .field = field});
   std::size_t outside = 0, first = 0;
   for (std::size_t p = 0; p < d.values.size(); ++p) {
     const float v = d.values[p];
     if (!std::isnan(v) && !(v >= r.min && v <= r.max) && outside++ == 0) first = p;
   }
-  if (d.undecodable > 0)
-    throw FormatError(
-        fmt::format("{} of its {} values decode to no number (damaged data)", d.undecodable, d.values.size()),
-        {.file = file, .field = field});
   if (outside == 0) return;
   const auto j = static_cast<int>(first / static_cast<std::size_t>(d.grid.nlon));
   const auto i = static_cast<int>(first % static_cast<std::size_t>(d.grid.nlon));
