@@ -81,6 +81,26 @@ TEST(FixedGrid, SectorSizesAreAbis) {
 
 // The sensor's rays reach the renderer's sphere at each pixel's fixed-grid latitude and
 // longitude (within 1 mm: double rounding over 36 000 km).
+// abi:LON takes a longitude as geo: and leo: do, and the calibration of the GOES position
+// nearer round the globe: 160 E lies 63 deg from GOES-West's 137 W and 125 deg from
+// GOES-East's 75 W.
+TEST(FixedGrid, AbiLongitudesAndTheirPlatform) {
+  EXPECT_EQ(abi_view("abi:-100", "full", 2, 64).platform, "G16");
+  EXPECT_EQ(abi_view("abi:-110", "full", 2, 64).platform, "G18");
+  EXPECT_EQ(abi_view("abi:160", "full", 2, 64).platform, "G18");
+  EXPECT_EQ(abi_view("abi:10", "full", 2, 64).platform, "G16");
+  EXPECT_EQ(abi_view("abi:200", "full", 2, 64).platform, "G18");  // GRIB's 0..360: 160 W
+  EXPECT_DOUBLE_EQ(abi_view("abi:284.8", "full", 2, 64).projection.lon0_deg, -75.2);
+  for (const char* bad : {"abi:400", "abi:-181", "abi:1e6", "abi:nan"}) {
+    try {
+      abi_view(bad, "full", 2, 64);
+      ADD_FAILURE() << bad;
+    } catch (const ValueError& e) {
+      EXPECT_EQ(e.context().key, "sensor") << bad;
+    }
+  }
+}
+
 TEST(FixedGrid, RaysMeetTheSphereWhereTheGridSays) {
   const FixedGridView v = abi_view("abi:east", "full", 2, 16);
   const Sensor s = Sensor::abi(v);

@@ -30,6 +30,12 @@ Sensor oriented(const earth::Vec3& pos, const earth::Vec3& forward, const earth:
   return s;
 }
 
+// Longitudes east in either convention, [-180, 180] or GRIB's [0, 360]; beyond, a typing error.
+void check_longitude(double lon_deg, const char* sensor) {
+  if (!(lon_deg >= -180 && lon_deg <= 360))
+    throw ValueError(fmt::format("{} longitude must be in [-180, 360] deg east, got {:g}", sensor, lon_deg),
+                     {.key = "sensor"});
+}
 }  // namespace
 
 Sensor Sensor::geostationary(double lon_deg, int width, int height) {
@@ -114,9 +120,12 @@ FixedGridView abi_view(const std::string& spec, const std::string& scene, double
   } else if (which == "west") {
     v.projection.lon0_deg = -137.0, v.nominal_subpoint_lon_deg = -137.2, v.platform = "G18";
   } else {
-    const double lon = earth::wrap_lon_180(parse_numbers(which, 1, "sensor", "abi:east, abi:west or abi:LON")[0]);
+    const double lon_east = parse_numbers(which, 1, "sensor", "abi:east, abi:west or abi:LON")[0];
+    check_longitude(lon_east, "ABI");
+    const double lon = earth::wrap_lon_180(lon_east);
     v.projection.lon0_deg = v.nominal_subpoint_lon_deg = lon;
-    v.platform = std::abs(lon + 75) <= std::abs(lon + 137) ? "G16" : "G18";  // the nearer GOES position's
+    // The nearer GOES position's (its calibration), the longitudes' difference taken round the globe.
+    v.platform = std::abs(earth::wrap_lon_180(lon + 75)) <= std::abs(earth::wrap_lon_180(lon + 137)) ? "G16" : "G18";
   }
   v.sector = fixed_grid_sector(v.projection, scene, resolution_km, step);
   if (v.sector.nx < 1 || v.sector.ny < 1)
@@ -128,12 +137,6 @@ FixedGridView abi_view(const std::string& spec, const std::string& scene, double
 Sensor parse_sensor(const std::string& spec, int width, int height, const std::string& scene, double resolution_km,
                     int abi_step) {
   if (spec.rfind("abi:", 0) == 0) return Sensor::abi(abi_view(spec, scene, resolution_km, abi_step));
-  // Longitudes east in either convention, [-180, 180] or GRIB's [0, 360]; beyond, a typing error.
-  auto check_longitude = [](double lon_deg, const char* orbit) {
-    if (!(lon_deg >= -180 && lon_deg <= 360))
-      throw ValueError(fmt::format("{} longitude must be in [-180, 360] deg east, got {:g}", orbit, lon_deg),
-                       {.key = "sensor"});
-  };
   if (spec.rfind("geo:", 0) == 0) {
     const double lon_deg = parse_numbers(spec.substr(4), 1, "sensor", "geo:LON")[0];
     check_longitude(lon_deg, "GEO");
