@@ -668,6 +668,9 @@ struct RenderContext {
   /// shadows a shell casts dim with, read where its cloud came from (weather_place()).
   std::vector<float> shadow_tau;
   bool shadows = false;  ///< shadows asked for and a solar band among the bands
+  /// The bands that see sunlight (Band::sunlit()), in order: a hit's beam reflectances are found
+  /// for these alone, packed into their own lanes (a thermal render has one of ten).
+  std::vector<std::size_t> sunlit_bands;
   /// The pixel's cone for filtering (march_shell): its width per metre of distance, one pixel's
   /// (or sub-pixel's) angle at the image centre [rad]; 0 without filtering.
   double spread = 0;
@@ -691,7 +694,9 @@ struct RenderContext {
         shadow_albedo[si][b] = omega, shadow_scale[si][b] = optics::similarity_scaled(1.0, omega, cp.asymmetry).tau;
       }
     }
-    for (const auto* b : tables.bands) shadows = shadows || (params.shadows && b->sunlit());
+    for (std::size_t b = 0; b < tables.bands.size(); ++b)
+      if (tables.bands[b]->sunlit()) sunlit_bands.push_back(b);
+    shadows = params.shadows && !sunlit_bands.empty();
     if (shadows) build_shadow_tau();
     if (params.filter)
       spread = 2 * std::tan(0.5 * sensor.fov_deg * earth::deg) / (sensor.width * params.samples_per_axis);
@@ -1006,8 +1011,17 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   tau.fill(extinction_per_m * hit.depth_m * mu_view);
   cloud_layers(tau.data(), omega.data(), asym, mu_view, lanes, refl.data(), trans.data(), emis.data());
   // The Sun's beam is reflected as the layer reflects a beam from the Sun's height (a thin layer
-  // more of a low Sun); the skylight, diffuse, as the layer reflects diffuse light.
-  if (mu_sun > 0) optics::delta_eddington_beam_reflectances(tau.data(), omega.data(), asym, mu_sun, lanes, beam.data());
+  // more of a low Sun); the skylight, diffuse, as the layer reflects diffuse light. Each lane's
+  // arithmetic is its own, so the sunlit bands' lanes packed apart give the same values.
+  const std::size_t ns_lit = c.sunlit_bands.size();
+  if (mu_sun > 0 && ns_lit > 0) {
+    alignas(64) std::array<double, optics::max_band_count> omega_lit, beam_lit;
+    omega_lit.fill(omega[c.sunlit_bands[0]]);  // the padding lanes a real band's
+    for (std::size_t j = 0; j < ns_lit; ++j) omega_lit[j] = omega[c.sunlit_bands[j]];
+    optics::delta_eddington_beam_reflectances(tau.data(), omega_lit.data(), asym, mu_sun, optics::band_lanes(ns_lit),
+                                              beam_lit.data());
+    for (std::size_t j = 0; j < ns_lit; ++j) beam[c.sunlit_bands[j]] = beam_lit[j];
+  }
   for (std::size_t b = 0; b < nb; ++b) {
     const optics::Band& band = *c.tables.bands[b];
     double rad = 0;
