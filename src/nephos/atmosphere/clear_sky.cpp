@@ -170,18 +170,26 @@ namespace {
 // Kasten & Young's (1989) zenith-angle term 0.50572 (96.07995 - z)^-1.6364, z in degrees.
 double kasten_young_term(double zenith_deg) { return 0.50572 * std::pow(96.07995 - zenith_deg, -1.6364); }
 
-// That term every 0.01 degree of zenith angle up to 80 degrees, linear between the nodes (the
-// closed form beyond, where its curvature grows): the renderer asks for two air masses per
-// pixel and layer, and pow() was a fiftieth of its time. Within 1e-8 of the closed form's air
-// mass, relative (AirMass.FollowsKastenAndYoungsFormula).
+// That term tabulated against s = sqrt(1 - mu) up to 80 degrees, linear between the nodes (the
+// closed form beyond, where its curvature grows). The renderer asks for two air masses per pixel
+// and layer: a table in the zenith angle needed acos(), a table in mu would meet the term's
+// square-root cusp at the zenith, and in s the term is smooth (z ~ sqrt(2) s there), so one
+// sqrt() finds the node. Within 1e-8 of the closed form's air mass, relative
+// (AirMass.FollowsKastenAndYoungsFormula).
 struct KastenYoungTable {
-  static constexpr double step_deg = 0.01, top_deg = 80.0;
+  static constexpr double top_deg = 80.0;
+  static constexpr double step_s = 1e-4;  // h^2 / 8 of the term's curvature in s (~1 at 80 deg): 7e-9 relative
+  const double mu_top = std::cos(top_deg * M_PI / 180);
   std::vector<double> term;
-  KastenYoungTable() : term(static_cast<std::size_t>(top_deg / step_deg + 0.5) + 1) {
-    for (std::size_t i = 0; i < term.size(); ++i) term[i] = kasten_young_term(static_cast<double>(i) * step_deg);
+  KastenYoungTable() : term(static_cast<std::size_t>(std::sqrt(1 - std::cos(top_deg * M_PI / 180)) / step_s) + 2) {
+    for (std::size_t i = 0; i < term.size(); ++i) {
+      const double si = static_cast<double>(i) * step_s, mu = std::max(1 - si * si, -1.0);
+      term[i] = kasten_young_term(std::acos(mu) * 180 / M_PI);
+    }
   }
-  double at(double zenith_deg) const {
-    const double x = zenith_deg / step_deg;
+  /// The term at mu in [mu_top, 1].
+  double at(double mu) const {
+    const double x = std::sqrt(std::max(0.0, 1 - mu)) / step_s;
     const auto i = std::min(static_cast<std::size_t>(x), term.size() - 2);
     return term[i] + (x - static_cast<double>(i)) * (term[i + 1] - term[i]);
   }
@@ -190,10 +198,10 @@ struct KastenYoungTable {
 
 double air_mass(double mu) {
   static const KastenYoungTable table;
+  if (mu >= table.mu_top) return 1 / (std::min(mu, 1.0) + table.at(mu));
   const double zenith_deg = std::acos(std::clamp(mu, -1.0, 1.0)) * 180 / M_PI;
   if (zenith_deg >= 96.0) return 40.0;
-  const double term = zenith_deg < KastenYoungTable::top_deg ? table.at(zenith_deg) : kasten_young_term(zenith_deg);
-  return 1 / (std::max(mu, 0.0) + term);
+  return 1 / (std::max(mu, 0.0) + kasten_young_term(zenith_deg));
 }
 
 ClearSkyColumn clear_sky_column(const Profile& full, const optics::Band& b, const ColumnGeometry& g, double lat) {
