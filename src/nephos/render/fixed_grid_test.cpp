@@ -79,8 +79,6 @@ TEST(FixedGrid, SectorSizesAreAbis) {
   EXPECT_THROW(fixed_grid_sector(east, "full", 2, 0), ValueError);
 }
 
-// The sensor's rays reach the renderer's sphere at each pixel's fixed-grid latitude and
-// longitude (within 1 mm: double rounding over 36 000 km).
 // abi:LON takes a longitude as geo: and leo: do, and the calibration of the GOES position
 // nearer round the globe: 160 E lies 63 deg from GOES-West's 137 W and 125 deg from
 // GOES-East's 75 W.
@@ -101,6 +99,8 @@ TEST(FixedGrid, AbiLongitudesAndTheirPlatform) {
   }
 }
 
+// The sensor's rays reach the renderer's sphere at each pixel's fixed-grid latitude and
+// longitude (within 1 mm: double rounding over 36 000 km).
 TEST(FixedGrid, RaysMeetTheSphereWhereTheGridSays) {
   const FixedGridView v = abi_view("abi:east", "full", 2, 16);
   const Sensor s = Sensor::abi(v);
