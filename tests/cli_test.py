@@ -456,6 +456,50 @@ class AbiL1b(unittest.TestCase):
                 self.assertEqual(hashlib.sha256(f.read_bytes()).hexdigest(),
                                  hashlib.sha256((Path(d) / f.name).read_bytes()).hexdigest(), f.name)
 
+    def test_pixel_statistics_and_extents_are_the_files_own(self):
+        # What PUG Vol. 3's L1b files report of their valid pixels (DQF 0), recomputed with numpy
+        # from Rad as stored: the count, and the minimum, maximum, mean and (population) standard
+        # deviation of the radiances, to float32's 1e-6 of the largest (JCSDA's ioda-converters
+        # read valid_pixel_count and std_dev_radiance_value_of_valid_pixels); no
+        # Earth pixel missing. The image's centre and bounds in scan angle from the x and y
+        # coordinates (half a pixel beyond the outermost centres, 1e-6 rad: float32 of 0.15).
+        # The geodetic extent against the longitudes and latitudes pyresample (PROJ) gives the
+        # file's area, to 0.01 deg where both put the same pixels on the Earth (GOES-West's disc
+        # across the date line: test_goes18_files_carry_goes18_calibration). Faults caught: space
+        # pixels counted valid, the statistics taken over the fill values.
+        import netCDF4
+        import numpy as np
+        scn = self.scene()
+        scn.load(["C13"])
+        lons, lats = scn["C13"].attrs["area"].get_lonlats()
+        for f in sorted((Path(self.tmp.name) / "l1b").glob("*.nc")):
+            nc = netCDF4.Dataset(f)
+            rad, dqf = nc["Rad"][:], np.ma.filled(nc["DQF"][:], -1)
+            valid = np.ma.filled(rad, np.nan)[dqf == 0].astype(np.float64)
+            self.assertEqual(int(nc["valid_pixel_count"][...]), valid.size, f.name)
+            self.assertGreater(valid.size, 15000, f.name)
+            self.assertEqual(int(nc["missing_pixel_count"][...]), 0, f.name)
+            for name, ours in (("min", valid.min()), ("max", valid.max()), ("mean", valid.mean()),
+                               ("std_dev", valid.std())):
+                theirs = float(nc[f"{name}_radiance_value_of_valid_pixels"][...])
+                self.assertLessEqual(abs(theirs - ours), 1e-6 * valid.max(), f"{f.name} {name}")
+            x, y = nc["x"][:].astype(np.float64), nc["y"][:].astype(np.float64)
+            dx, dy = x[1] - x[0], y[1] - y[0]
+            self.assertAlmostEqual(float(nc["x_image"][...]), 0.5 * (x[0] + x[-1]), delta=1e-6)
+            self.assertAlmostEqual(float(nc["y_image"][...]), 0.5 * (y[0] + y[-1]), delta=1e-6)
+            np.testing.assert_allclose(nc["x_image_bounds"][:], [x[0] - dx / 2, x[-1] + dx / 2], atol=1e-6)
+            np.testing.assert_allclose(nc["y_image_bounds"][:], [y[0] - dy / 2, y[-1] + dy / 2], atol=1e-6)
+            if "C13" not in f.name:
+                continue
+            e = nc["geospatial_lat_lon_extent"]
+            on = np.isfinite(lats) & (dqf == 0)
+            self.assertEqual(on.sum(), valid.size)  # PROJ and nephos put the same pixels on the Earth
+            self.assertAlmostEqual(e.geospatial_northbound_latitude, lats[on].max(), delta=0.01)
+            self.assertAlmostEqual(e.geospatial_southbound_latitude, lats[on].min(), delta=0.01)
+            self.assertAlmostEqual(e.geospatial_westbound_longitude, lons[on].min(), delta=0.01)
+            self.assertAlmostEqual(e.geospatial_eastbound_longitude, lons[on].max(), delta=0.01)
+            self.assertEqual(e.geospatial_lon_nadir, -75.0)
+
     def test_goes18_files_carry_goes18_calibration(self):
         # GOES-West (GOES-18) files: satpy's brightness temperatures equal nephos's to 0.05 K in
         # bands 13 and 14, and the files carry GOES-18's coefficients: band 13's as NOAA's files
@@ -463,7 +507,8 @@ class AbiL1b(unittest.TestCase):
         # central frequency in CRTM's spectral coefficients, 26720.42 GHz as NOAA/EMC's radiance
         # monitoring lists it (GOES-16's is 26801.46: fk2 1286.27 against 1282.38), with
         # GOES-16's bc1 and bc2; each file names its coefficients' source. Faults caught:
-        # GOES-16's coefficients in GOES-18's files, a GOES-18 band left with nephos's own band's.
+        # GOES-16's coefficients in GOES-18's files, a GOES-18 band left with nephos's own band's,
+        # the extent's west and east edges swapped across the date line.
         import warnings
         import netCDF4
         import numpy as np
@@ -496,6 +541,14 @@ class AbiL1b(unittest.TestCase):
             valid = np.isfinite(theirs) & np.isfinite(ours)
             self.assertGreater(valid.sum(), 15000, channel)
             self.assertLess(np.max(np.abs(theirs[valid] - ours[valid])), 0.05, channel)
+        # GOES-West's disc crosses the date line: its extent runs from a west edge in the eastern
+        # hemisphere to an east edge in the western one, as pyresample's longitudes east of the
+        # projection origin (-137) put them, to 0.01 deg.
+        lons, _ = scn["C13"].attrs["area"].get_lonlats()
+        east_of_origin = (lons[np.isfinite(lons)] + 137 + 180) % 360 - 180
+        e = netCDF4.Dataset(files[0])["geospatial_lat_lon_extent"]
+        self.assertAlmostEqual(e.geospatial_westbound_longitude, east_of_origin.min() - 137 + 360, delta=0.01)
+        self.assertAlmostEqual(e.geospatial_eastbound_longitude, east_of_origin.max() - 137, delta=0.01)
 
     def test_a_satpy_composite_builds(self):
         # satpy's airmass composite (bands 8, 10, 12, 13) from nephos's files: an RGB of the grid.

@@ -4,10 +4,14 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "nephos/core/error.hpp"
+#include "nephos/earth/earth.hpp"
 #include "nephos/io/netcdf_writer.hpp"
 
 namespace nephos::render {
@@ -80,14 +84,162 @@ std::string planck_source_text(const std::string& platform, const optics::Band& 
   return "nephos's band, flat between its nominal edges";
 }
 
+// Where the fixed grid puts a sector's pixels: which lie on the Earth, and the geodetic extent
+// of those (PUG Vol. 3's geospatial_lat_lon_extent: longitudes east, taken relative to the
+// projection origin, so that a sector across the date line keeps its west edge west).
+struct GridCover {
+  std::vector<std::uint8_t> on_earth;
+  double south = 0, north = 0, west = 0, east = 0;  // [deg]; 0 with no Earth pixel
+};
+
+GridCover grid_cover(const FixedGridView& view) {
+  const FixedGridSector& sec = view.sector;
+  GridCover g;
+  g.on_earth.resize(static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny));
+  double south = 90, north = -90, west = 180, east = -180;  // longitudes relative to lon0
+#pragma omp parallel for schedule(static) reduction(min : south, west) reduction(max : north, east)
+  for (int j = 0; j < sec.ny; ++j)
+    for (int i = 0; i < sec.nx; ++i) {
+      double lat = 0, lon = 0;
+      const bool on = view.projection.to_geodetic(sec.x(i), sec.y(j), lat, lon);
+      g.on_earth[static_cast<std::size_t>(j) * static_cast<std::size_t>(sec.nx) + static_cast<std::size_t>(i)] = on;
+      if (!on) continue;
+      const double rel = earth::wrap_lon_180(lon - view.projection.lon0_deg);
+      south = std::min(south, lat), north = std::max(north, lat), west = std::min(west, rel),
+      east = std::max(east, rel);
+    }
+  if (north >= south)
+    g.south = south, g.north = north, g.west = earth::wrap_lon_180(west + view.projection.lon0_deg),
+    g.east = earth::wrap_lon_180(east + view.projection.lon0_deg);
+  return g;
+}
+
+// A band's Rad as ABI packs it, its quality flags, and what PUG Vol. 3's L1b files report of the
+// valid pixels (DQF 0): their count, the saturated (above Rad's range) and undersaturated (below
+// 0) among them, the Earth pixels with no value, and the minimum, maximum, mean and standard
+// deviation (of the population) of Rad as stored, counts times scale_factor, so that a reader
+// who recomputes them from the file agrees. Integer sums: the same for any thread count.
+struct PackedBand {
+  std::vector<std::int16_t> rad;
+  std::vector<std::int8_t> dqf;
+  std::int32_t valid = 0, missing = 0, saturated = 0, undersaturated = 0;
+  double min = 0, max = 0, mean = 0, std_dev = 0;  // [Rad's units]; 0 with no valid pixel
+};
+
+PackedBand pack_band(const RenderImage& img, std::size_t bi, const optics::Band& band, const PlanckCoefficients& pc,
+                     double scale, const std::vector<std::uint8_t>& on_earth) {
+  const std::size_t n = on_earth.size();
+  PackedBand p;
+  p.rad.resize(n), p.dqf.resize(n);
+  const auto ni = static_cast<std::ptrdiff_t>(n);
+  std::int64_t valid = 0, missing = 0, saturated = 0, undersaturated = 0, sum = 0;
+  int lo = 32767, hi = -1;
+#pragma omp parallel for schedule(static) reduction(+ : valid, missing, saturated, undersaturated, sum) \
+    reduction(min : lo) reduction(max : hi)
+  for (std::ptrdiff_t k = 0; k < ni; ++k) {  // each pixel on its own: the same bits for any thread count
+    const auto i = static_cast<std::size_t>(k);
+    const double l = !on_earth[i]   ? NAN
+                     : band.thermal ? pc.radiance(img.brightness_temperature[bi][i])
+                                    : img.radiance[bi][i];
+    const bool ok = std::isfinite(l);
+    const double q = l / scale;
+    const int c = ok ? static_cast<int>(std::clamp(std::round(q), 0.0, counts)) : rad_fill;
+    p.rad[i] = static_cast<std::int16_t>(c);
+    p.dqf[i] = ok ? 0 : -1;
+    missing += on_earth[i] && !ok;
+    if (!ok) continue;
+    valid += 1, saturated += q > counts, undersaturated += q < 0;
+    sum += c;
+    lo = std::min(lo, c), hi = std::max(hi, c);
+  }
+  p.valid = static_cast<std::int32_t>(valid), p.missing = static_cast<std::int32_t>(missing);
+  p.saturated = static_cast<std::int32_t>(saturated), p.undersaturated = static_cast<std::int32_t>(undersaturated);
+  if (valid > 0) {
+    // The deviations' squares from the integer nearest the mean, summed exactly; then the
+    // variance about the mean itself (no cancellation: the two means differ by at most 0.5).
+    const double mean_counts = static_cast<double>(sum) / static_cast<double>(valid);
+    const auto centre = static_cast<std::int64_t>(std::llround(mean_counts));
+    std::uint64_t dev2 = 0;  // at most 32766^2 per pixel: 2^64 holds 1.7e10 pixels
+#pragma omp parallel for schedule(static) reduction(+ : dev2)
+    for (std::ptrdiff_t k = 0; k < ni; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      const std::int64_t d = p.dqf[i] == 0 ? p.rad[i] - centre : 0;
+      dev2 += static_cast<std::uint64_t>(d * d);
+    }
+    const double offset = mean_counts - static_cast<double>(centre);
+    const double variance = std::max(0.0, static_cast<double>(dev2) / static_cast<double>(valid) - offset * offset);
+    p.min = lo * scale, p.max = hi * scale, p.mean = mean_counts * scale, p.std_dev = std::sqrt(variance) * scale;
+  }
+  return p;
+}
+
+// PUG Vol. 3's counts and statistics of the valid pixels, the image's centre and bounds in scan
+// angle, and its geodetic extent, as variables of the file; returns the counts' variables and
+// values (int32) and the bounds' (float32 pairs), written after the definitions end.
+struct SummaryVariables {
+  std::vector<std::pair<int, std::int32_t>> counts;
+  std::vector<std::pair<int, std::array<float, 2>>> bounds;
+};
+
+SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand& p, const GridCover& cover,
+                             const FixedGridView& view, const std::string& units) {
+  SummaryVariables out;
+  auto count = [&](const std::string& name, std::int32_t value, const std::string& long_name) {
+    const int v = nc.add_variable(name, io::NcType::i32, {});
+    nc.put_attribute(v, "long_name", long_name);
+    nc.put_attribute(v, "units", "count");
+    out.counts.emplace_back(v, value);
+  };
+  count("valid_pixel_count", p.valid, "number of good and conditionally usable pixels");
+  count("missing_pixel_count", p.missing, "number of missing pixels");
+  count("saturated_pixel_count", p.saturated, "number of saturated pixels");
+  count("undersaturated_pixel_count", p.undersaturated, "number of undersaturated pixels");
+  sc.add(nc, "min_radiance_value_of_valid_pixels", p.min, units, "minimum radiance value of pixels");
+  sc.add(nc, "max_radiance_value_of_valid_pixels", p.max, units, "maximum radiance value of pixels");
+  sc.add(nc, "mean_radiance_value_of_valid_pixels", p.mean, units, "mean radiance value of pixels");
+  sc.add(nc, "std_dev_radiance_value_of_valid_pixels", p.std_dev, units,
+         "standard deviation of radiance values of pixels");
+  sc.add(nc, "percent_uncorrectable_L0_errors", 0.0, "percent", "percent data lost due to uncorrectable L0 errors");
+  const FixedGridSector& sec = view.sector;
+  const double x1 = sec.x(sec.nx - 1), y1 = sec.y(sec.ny - 1);
+  sc.add(nc, "x_image", 0.5 * (sec.x0_rad + x1), "rad", "GOES-R fixed grid projection x-coordinate center of image");
+  sc.add(nc, "y_image", 0.5 * (sec.y0_rad + y1), "rad", "GOES-R fixed grid projection y-coordinate center of image");
+  auto bounds = [&](const std::string& name, double a, double b, const std::string& long_name) {
+    const int v = nc.add_variable(name, io::NcType::f32, {"number_of_image_bounds"});
+    nc.put_attribute(v, "long_name", long_name);
+    nc.put_attribute(v, "units", "rad");
+    out.bounds.emplace_back(v, std::array<float, 2>{static_cast<float>(a), static_cast<float>(b)});
+  };
+  bounds("x_image_bounds", sec.x0_rad - 0.5 * sec.dx_rad, x1 + 0.5 * sec.dx_rad,
+         "GOES-R fixed grid projection x-coordinate west/east extent of image");
+  bounds("y_image_bounds", sec.y0_rad - 0.5 * sec.dy_rad, y1 + 0.5 * sec.dy_rad,
+         "GOES-R fixed grid projection y-coordinate north/south extent of image");
+  // The extent's values are its attributes (the variable itself holds the fill value).
+  const int e = nc.add_variable("geospatial_lat_lon_extent", io::NcType::f32, {});
+  nc.put_attribute(e, "long_name", "geospatial latitude and longitude references");
+  nc.put_attribute_f32(e, "geospatial_westbound_longitude", {static_cast<float>(cover.west)});
+  nc.put_attribute_f32(e, "geospatial_northbound_latitude", {static_cast<float>(cover.north)});
+  nc.put_attribute_f32(e, "geospatial_eastbound_longitude", {static_cast<float>(cover.east)});
+  nc.put_attribute_f32(e, "geospatial_southbound_latitude", {static_cast<float>(cover.south)});
+  double lat_c = 0, lon_c = 0;  // the image's centre, where it lies on the Earth
+  const bool centre_on_earth =
+      view.projection.to_geodetic(0.5 * (sec.x0_rad + x1), 0.5 * (sec.y0_rad + y1), lat_c, lon_c);
+  nc.put_attribute_f32(e, "geospatial_lat_center", {static_cast<float>(centre_on_earth ? lat_c : NAN)});
+  nc.put_attribute_f32(e, "geospatial_lon_center", {static_cast<float>(centre_on_earth ? lon_c : NAN)});
+  nc.put_attribute_f32(e, "geospatial_lat_nadir", {0.0f});
+  nc.put_attribute_f32(e, "geospatial_lon_nadir", {static_cast<float>(view.projection.lon0_deg)});
+  nc.put_attribute(e, "geospatial_lat_units", "degrees_north");
+  nc.put_attribute(e, "geospatial_lon_units", "degrees_east");
+  return out;
+}
+
 void write_band(const std::filesystem::path& path, const RenderImage& img, std::size_t bi, const FixedGridView& view,
-                const UtcTime& start, double sun_distance_au, const std::vector<std::uint8_t>& on_earth) {
+                const UtcTime& start, double sun_distance_au, const GridCover& cover) {
   const optics::Band& band = optics::band(img.bands[bi]);
   const FixedGridSector& sec = view.sector;
-  const std::size_t n = static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny);
   io::NetcdfWriter nc(path);
   nc.add_dimension("y", static_cast<std::size_t>(sec.ny)), nc.add_dimension("x", static_cast<std::size_t>(sec.nx));
-  nc.add_dimension("number_of_time_bounds", 2);
+  nc.add_dimension("number_of_time_bounds", 2), nc.add_dimension("number_of_image_bounds", 2);
   // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
   // 1.5; thermal bands [mW m^-2 sr^-1 (cm^-1)^-1] up to 350 K.
   const PlanckCoefficients pc = abi_planck_coefficients(view.platform, band);
@@ -97,7 +249,8 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.put_attribute_i16(rad, "_FillValue", {rad_fill});
   nc.put_attribute(rad, "scale_factor", scale);
   nc.put_attribute(rad, "add_offset", 0.0);
-  nc.put_attribute(rad, "units", band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1");
+  const std::string rad_units = band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1";
+  nc.put_attribute(rad, "units", rad_units);
   nc.put_attribute(rad, "long_name", "ABI L1b Radiances (simulated by nephos)");
   nc.put_attribute(rad, "standard_name", "toa_outgoing_radiance_per_unit_wavenumber");
   nc.put_attribute_i16(rad, "valid_range", {0, static_cast<std::int16_t>(counts)});
@@ -140,6 +293,8 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
          "nominal satellite subpoint longitude");
   sc.add(nc, "nominal_satellite_height", FixedGridProjection::perspective_height_m / 1e3, "km",
          "nominal satellite height above GRS 80 ellipsoid");
+  const PackedBand packed = pack_band(img, bi, band, pc, scale, cover.on_earth);
+  const SummaryVariables summary = add_summary(nc, sc, packed, cover, view, rad_units);
   const int yaw = nc.add_variable("yaw_flip_flag", io::NcType::i8, {});
   nc.put_attribute(yaw, "long_name", "Flag indicating the spacecraft is operating in yaw flip configuration");
   // Time: seconds since 2000-01-01 12:00:00 (J2000), the scan's middle and its bounds.
@@ -172,21 +327,10 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.put_attribute(g, "time_coverage_end", abi_iso(end));
   nc.end_definitions();
   // Data.
-  std::vector<std::int16_t> packed(n);
-  std::vector<std::int8_t> quality(n);
-  const auto ni = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t k = 0; k < ni; ++k) {  // each pixel on its own: the same bits for any thread count
-    const auto i = static_cast<std::size_t>(k);
-    const double l = !on_earth[i]   ? NAN
-                     : band.thermal ? pc.radiance(img.brightness_temperature[bi][i])
-                                    : img.radiance[bi][i];
-    const bool ok = std::isfinite(l);
-    packed[i] = ok ? static_cast<std::int16_t>(std::clamp(std::round(l / scale), 0.0, counts)) : rad_fill;
-    quality[i] = ok ? 0 : -1;
-  }
-  nc.write(rad, packed.data());
-  nc.write(dqf, quality.data());
+  nc.write(rad, packed.rad.data());
+  nc.write(dqf, packed.dqf.data());
+  for (const auto& [v, value] : summary.counts) nc.write(v, &value);
+  for (const auto& [v, pair] : summary.bounds) nc.write(v, pair.data());
   std::vector<std::int16_t> index(static_cast<std::size_t>(std::max(sec.nx, sec.ny)));
   for (std::size_t i = 0; i < index.size(); ++i) index[i] = static_cast<std::int16_t>(i);
   nc.write(xv, index.data());
@@ -317,19 +461,11 @@ std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& di
     throw ValueError(fmt::format("a {}x{} image is not the {}x{} sector", image.width, image.height, sec.nx, sec.ny),
                      {.key = "size"});
   if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
-  // Which pixels the fixed grid puts on the Earth.
-  std::vector<std::uint8_t> on_earth(static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny));
-#pragma omp parallel for schedule(static)
-  for (int j = 0; j < sec.ny; ++j)
-    for (int i = 0; i < sec.nx; ++i) {
-      double lat = 0, lon = 0;
-      on_earth[static_cast<std::size_t>(j) * static_cast<std::size_t>(sec.nx) + static_cast<std::size_t>(i)] =
-          view.projection.to_geodetic(sec.x(i), sec.y(j), lat, lon);
-    }
+  const GridCover cover = grid_cover(view);  // which pixels lie on the Earth, and their extent
   std::vector<std::filesystem::path> paths;
   for (std::size_t b = 0; b < image.bands.size(); ++b) {
     paths.push_back(dir / abi_l1b_file_name(view, optics::band(image.bands[b]).abi_band, start));
-    write_band(paths.back(), image, b, view, start, sun_distance_au, on_earth);
+    write_band(paths.back(), image, b, view, start, sun_distance_au, cover);
   }
   return paths;
 }
