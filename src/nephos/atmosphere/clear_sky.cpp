@@ -181,10 +181,10 @@ struct KastenYoungTable {
   static constexpr double step_s = 1e-4;  // h^2 / 8 of the term's curvature in s (~1 at 80 deg): 7e-9 relative
   const double mu_top = std::cos(top_deg * M_PI / 180);
   std::vector<double> term;
-  KastenYoungTable() : term(static_cast<std::size_t>(std::sqrt(1 - std::cos(top_deg * M_PI / 180)) / step_s) + 2) {
+  KastenYoungTable() : term(static_cast<std::size_t>(std::sqrt(1 - mu_top) / step_s) + 2) {
     for (std::size_t i = 0; i < term.size(); ++i) {
-      const double si = static_cast<double>(i) * step_s, mu = std::max(1 - si * si, -1.0);
-      term[i] = kasten_young_term(std::acos(mu) * 180 / M_PI);
+      const double si = static_cast<double>(i) * step_s;  // the last node's mu is still above 0
+      term[i] = kasten_young_term(std::acos(1 - si * si) * 180 / M_PI);
     }
   }
   /// The term at mu in [mu_top, 1].

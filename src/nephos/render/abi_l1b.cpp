@@ -202,8 +202,9 @@ SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand
   sc.add(nc, "percent_uncorrectable_L0_errors", 0.0, "percent", "percent data lost due to uncorrectable L0 errors");
   const FixedGridSector& sec = view.sector;
   const double x1 = sec.x(sec.nx - 1), y1 = sec.y(sec.ny - 1);
-  sc.add(nc, "x_image", 0.5 * (sec.x0_rad + x1), "rad", "GOES-R fixed grid projection x-coordinate center of image");
-  sc.add(nc, "y_image", 0.5 * (sec.y0_rad + y1), "rad", "GOES-R fixed grid projection y-coordinate center of image");
+  const double xc = 0.5 * (sec.x0_rad + x1), yc = 0.5 * (sec.y0_rad + y1);  // the image's centre [rad]
+  sc.add(nc, "x_image", xc, "rad", "GOES-R fixed grid projection x-coordinate center of image");
+  sc.add(nc, "y_image", yc, "rad", "GOES-R fixed grid projection y-coordinate center of image");
   auto bounds = [&](const std::string& name, double a, double b, const std::string& long_name) {
     const int v = nc.add_variable(name, io::NcType::f32, {"number_of_image_bounds"});
     nc.put_attribute(v, "long_name", long_name);
@@ -222,8 +223,7 @@ SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand
   nc.put_attribute_f32(e, "geospatial_eastbound_longitude", {static_cast<float>(cover.east)});
   nc.put_attribute_f32(e, "geospatial_southbound_latitude", {static_cast<float>(cover.south)});
   double lat_c = 0, lon_c = 0;  // the image's centre, where it lies on the Earth
-  const bool centre_on_earth =
-      view.projection.to_geodetic(0.5 * (sec.x0_rad + x1), 0.5 * (sec.y0_rad + y1), lat_c, lon_c);
+  const bool centre_on_earth = view.projection.to_geodetic(xc, yc, lat_c, lon_c);
   nc.put_attribute_f32(e, "geospatial_lat_center", {static_cast<float>(centre_on_earth ? lat_c : NAN)});
   nc.put_attribute_f32(e, "geospatial_lon_center", {static_cast<float>(centre_on_earth ? lon_c : NAN)});
   nc.put_attribute_f32(e, "geospatial_lat_nadir", {0.0f});
