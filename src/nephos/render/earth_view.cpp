@@ -181,11 +181,15 @@ EarthView::Place EarthView::place(double lat, double lon) const {
 }
 
 void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out) const {
+  if (!atmosphere_) return air_at_air_masses(s, z, 1, 1, out);
+  air_at_air_masses(s, z, atmosphere::air_mass(std::max(mu_view, 0.02)),
+                    mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out);
+}
+
+void EarthView::air_at_air_masses(const Place& s, double z, double m_view, double m_sun, AirSample& out) const {
   const std::size_t nb = bands_.size();
   for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
   if (!atmosphere_) return;
-  const double m_view = atmosphere::air_mass(std::max(mu_view, 0.02));
-  const double m_sun = mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0;
   // Per band, the nodes' optical depths carried to the pixel's air masses (exact for a grey
   // absorber) and their other quantities, weighted bilinearly; exponentiated once.
   alignas(64) std::array<double, optics::max_band_count> log_t{}, q{}, log_sun{}, tr{};

@@ -47,6 +47,9 @@ class EarthView {
   /// The air between altitude z [m] at a place and the sensor, for a line of sight of cos
   /// zenith mu_view and the Sun at cos zenith mu_sun there.
   void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out) const;
+  /// air() for a line of sight and a Sun path of given air masses (m_sun <= 0: the Sun is down);
+  /// t_view is the vertical column's to the power m_view (exact for the grey nodes' scaling).
+  void air_at_air_masses(const Place& at, double z_m, double m_view, double m_sun, AirSample& out) const;
   double temperature_k(const Place& at, double z_m) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;

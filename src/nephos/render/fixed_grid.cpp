@@ -41,18 +41,41 @@ earth::Vec3 FixedGridProjection::satellite_ecef() const {
   return satellite_distance_m() * earth::unit_from_latlon(0, lon0_deg);
 }
 
-bool FixedGridProjection::to_geodetic(double x, double y, double& lat_deg, double& lon_deg) const {
-  // PUG Vol. 3, section 5.1.2.8.1: the line of sight meets the ellipsoid at distance r_s.
-  const double H = satellite_distance_m();
-  const double sx = std::sin(x), cx = std::cos(x), sy = std::sin(y), cy = std::cos(y);
+namespace {
+// PUG Vol. 3, section 5.1.2.8.1: where the line of sight at scan angles with sines and cosines
+// (sx, cx), (sy, cy) meets the ellipsoid, in the satellite's frame (s_x towards the Earth's
+// centre, s_y west, s_z north) [m]; false where it misses.
+bool ellipsoid_hit(double H, double sx, double cx, double sy, double cy, double& s_x, double& s_y, double& s_z) {
   const double a = sx * sx + cx * cx * (cy * cy + eq_over_pol2 * sy * sy);
   const double b = -2 * H * cx * cy, c = H * H - r_eq * r_eq;
   const double disc = b * b - 4 * a * c;
   if (disc < 0) return false;
   const double rs = (-b - std::sqrt(disc)) / (2 * a);
-  const double s_x = rs * cx * cy, s_y = -rs * sx, s_z = rs * cx * sy;
+  s_x = rs * cx * cy, s_y = -rs * sx, s_z = rs * cx * sy;
+  return true;
+}
+}  // namespace
+
+bool FixedGridProjection::to_geodetic(double x, double y, double& lat_deg, double& lon_deg) const {
+  const double H = satellite_distance_m();
+  double s_x, s_y, s_z;
+  if (!ellipsoid_hit(H, std::sin(x), std::cos(x), std::sin(y), std::cos(y), s_x, s_y, s_z)) return false;
   lat_deg = std::atan(eq_over_pol2 * s_z / std::hypot(H - s_x, s_y)) / earth::deg;
   lon_deg = lon0_deg - std::atan(s_y / (H - s_x)) / earth::deg;
+  return true;
+}
+
+bool FixedGridProjection::geodetic_up_at_origin(double sin_x, double cos_x, double sin_y, double cos_y,
+                                                earth::Vec3& up) const {
+  // to_geodetic's latitude phi and longitude offset dl as sines and cosines, without the angles:
+  // tan phi = e s_z / rho, tan dl = -s_y / (H - s_x), rho = |(H - s_x, s_y)|; H - s_x > 0.
+  const double H = satellite_distance_m();
+  double s_x, s_y, s_z;
+  if (!ellipsoid_hit(H, sin_x, cos_x, sin_y, cos_y, s_x, s_y, s_z)) return false;
+  const double u = H - s_x, rho = std::sqrt(u * u + s_y * s_y), e_z = eq_over_pol2 * s_z;
+  const double hyp = std::sqrt(rho * rho + e_z * e_z);
+  const double cos_phi = rho / hyp;
+  up = earth::Vec3{cos_phi * u / rho, -cos_phi * s_y / rho, e_z / hyp};
   return true;
 }
 

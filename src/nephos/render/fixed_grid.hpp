@@ -22,6 +22,11 @@ struct FixedGridProjection {
   earth::Vec3 satellite_ecef() const;
   /// Geodetic latitude and longitude [deg] seen at scan angles (x, y) [rad]; false off the Earth.
   bool to_geodetic(double x_rad, double y_rad, double& lat_deg, double& lon_deg) const;
+  /// The unit vector at to_geodetic's latitude and longitude for scan angles given by their sines
+  /// and cosines, in the frame of the projection's origin (x towards longitude lon0_deg on the
+  /// equator, z north); false off the Earth. No angle is formed: a ray per pixel costs no
+  /// inverse trigonometry.
+  bool geodetic_up_at_origin(double sin_x, double cos_x, double sin_y, double cos_y, earth::Vec3& up) const;
   /// Scan angles [rad] of a point of the ellipsoid; false where the sensor cannot see it.
   bool to_scan(double lat_deg, double lon_deg, double& x_rad, double& y_rad) const;
   /// Unit line of sight (ECEF) at scan angles (x, y).

@@ -796,60 +796,6 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthVie
   return m;
 }
 
-// The per-type layers of one band of image rows [y0, y1), and each row's rays and distance to
-// the Earth. The image is rendered in bands of rows whose per-type layers (16 + 16 nb B per pixel
-// and type: 64 B for three spectral bands) fit in params.layer_budget_bytes (64 MiB), composited
-// band by band: each type's pass still sweeps many rows with its textures in cache, and the image
-// holds only its outputs (~37 B per pixel for three spectral bands, not ~290 with every type's
-// layers of the whole image: a 10848^2 full disc in 4 GiB, not 32). No pixel's result depends on the
-// band size: the bands change only the order of independent work (tested bit for bit).
-struct RowBand {
-  int rows = 1;                    ///< rows per band
-  std::size_t ns = 0, lbf = 0;     ///< types; floats per layer's band values
-  int y0 = 0, y1 = 0;              ///< the rows it holds now
-  std::vector<Layer> layers;       ///< [row pixel][type]
-  std::vector<float> layer_bands;  ///< [row pixel][type][layer_band_floats]
-  std::vector<float> t_earth;      ///< to the Earth's surface [m]; inf: space
-  /// Each pixel's ray direction, found once per band for every pass (an ABI fixed-grid ray
-  /// costs two geodetic conversions, ~0.2 us: one sixth of a 2 km full disc's time if each of
-  /// the six passes found it again).
-  std::vector<earth::Vec3> dirs;
-
-  explicit RowBand(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
-    const int w = c.sensor.width;
-    const std::size_t row_layer_bytes =
-        static_cast<std::size_t>(w) * std::max<std::size_t>(ns, 1) * (sizeof(Layer) + lbf * sizeof(float));
-    rows = static_cast<int>(std::clamp<std::size_t>(std::max<std::size_t>(c.params.layer_budget_bytes / row_layer_bytes,
-                                                                          8 * static_cast<std::size_t>(thread_count())),
-                                                    1, static_cast<std::size_t>(c.sensor.height)));
-    layers.resize(static_cast<std::size_t>(rows) * w * ns);
-    layer_bands.resize(layers.size() * lbf);
-    t_earth.resize(static_cast<std::size_t>(rows) * w);
-    dirs.resize(t_earth.size());
-  }
-  Layer& layer(std::size_t bpx, std::size_t si) { return layers[bpx * ns + si]; }
-  float* bands(std::size_t bpx, std::size_t si) { return &layer_bands[(bpx * ns + si) * lbf]; }
-  /// The ray directions of image row y (one of the band's).
-  const earth::Vec3* row_dirs(int y, int w) const { return &dirs[static_cast<std::size_t>(y - y0) * w]; }
-};
-
-// Starts band rows [y0, y1): layers cleared, each pixel's ray and distance to the Earth.
-void begin_rows(const RenderContext& c, int y0, int y1, RowBand& rb) {
-  const int w = c.sensor.width;
-  rb.y0 = y0, rb.y1 = y1;
-  std::fill(rb.layers.begin(), rb.layers.end(), Layer{});
-#pragma omp parallel for schedule(static)
-  for (int y = y0; y < y1; ++y) {
-    earth::Vec3* dirs = &rb.dirs[static_cast<std::size_t>(y - y0) * w];
-    c.sub.row_rays(c.sensor, y, dirs);
-    for (int x = 0; x < w; ++x) {
-      const auto e = earth::ray_sphere(c.sensor.position, dirs[x], earth::radius_m);
-      rb.t_earth[static_cast<std::size_t>(y - y0) * w + x] =
-          e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
-    }
-  }
-}
-
 // Sunlight arriving at a point per band [W m^-2 um^-1]: the direct beam normal to itself and the
 // diffuse skylight on a level surface, through the air above (gases, Rayleigh).
 struct Sunlight {
@@ -861,6 +807,49 @@ struct Sunlight {
 struct CloudLengths {
   std::array<double, weather::cloud_type_count> length{}, chance{};
 };
+
+// One thread's work on one image row at a time: each pixel's ray and distance to the Earth, each
+// cloud type's layer (16 + 16 nb B per pixel and type), and the scratch of the march's shadows and
+// the compositing. A row is traced in every type and composited by the thread that began it, so
+// the image holds only its outputs and the threads wait on each other once, at its end.
+struct RowWork {
+  std::size_t ns = 0, lbf = 0;     ///< types; floats per layer's band values
+  std::vector<Layer> layers;       ///< [pixel][type]
+  std::vector<float> layer_bands;  ///< [pixel][type][layer_band_floats]
+  std::vector<float> t_earth;      ///< to the Earth's surface [m]; inf: space
+  std::vector<earth::Vec3> dirs;   ///< the rays' directions
+  // The march's: each ray's limit, its hit in the type, the hits (or ground points) in sunlight,
+  // their positions and the cloud towards the Sun from them.
+  std::vector<double> t_max;
+  std::vector<ShellHit> hits;
+  std::vector<int> lit;
+  std::vector<earth::Vec3> lit_points;
+  std::vector<CloudLengths> lengths;
+  // The compositing's, per pixel and band (optics::max_band_count apart): radiance,
+  // transmittance, the air's radiance above the last layer and the stack's reflectance seen from
+  // below; whether some band sees what lies behind the clouds.
+  std::vector<double> rad, trans, path_above, refl_above;
+  std::vector<std::uint8_t> seen;
+
+  RowWork(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
+    const auto w = static_cast<std::size_t>(c.sensor.width);
+    layers.resize(w * ns), layer_bands.resize(w * ns * lbf), t_earth.resize(w), dirs.resize(w);
+    t_max.resize(w), hits.resize(w), seen.resize(w);
+    for (auto* v : {&rad, &trans, &path_above, &refl_above}) v->resize(w * optics::max_band_count);
+  }
+  Layer& layer(std::size_t x, std::size_t si) { return layers[x * ns + si]; }
+  float* bands(std::size_t x, std::size_t si) { return &layer_bands[(x * ns + si) * lbf]; }
+};
+
+// Starts row y: layers cleared, each pixel's ray and distance to the Earth.
+void begin_row(const RenderContext& c, int y, RowWork& rw) {
+  std::fill(rw.layers.begin(), rw.layers.end(), Layer{});
+  c.sub.row_rays(c.sensor, y, rw.dirs.data());
+  for (int x = 0; x < c.sensor.width; ++x) {
+    const auto e = earth::ray_sphere(c.sensor.position, rw.dirs[x], earth::radius_m);
+    rw.t_earth[x] = e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
+  }
+}
 
 // Sunlight arriving at a point through the air above and the clouds towards the Sun
 // (`lengths`, by shell; null: none). Per shell, the share `chance` of the beam that meets cloud
@@ -1037,49 +1026,31 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   }
 }
 
-// One pass of cloud type si over the band's rows: each row's rays marched together (in
-// lockstep: see march_shell), the hits shaded into the band's layers. Returns the rays marched.
-std::uint64_t trace_type(const RenderContext& c, std::size_t si, RowBand& rb, Progress& progress) {
+// Cloud type si along the row begun in rw: its rays marched together (in lockstep: see
+// march_shell), the hits shaded into the row's layers. Returns the rays marched.
+std::uint64_t trace_row(const RenderContext& c, std::size_t si, RowWork& rw) {
   const clouds::CloudShell& shell = c.scene.shells[si];
   const int w = c.sensor.width;
+  for (int x = 0; x < w; ++x) rw.t_max[x] = rw.t_earth[x];
+  march_shell(shell, c.sensor.position, rw.dirs.data(), rw.t_max.data(), static_cast<std::size_t>(w), c.params.steps,
+              c.params.bisection_iterations, rw.hits.data(), c.spread);
+  // The clouds of the other shells towards the Sun from this row's hits.
+  rw.lit.clear(), rw.lit_points.clear();
+  for (int x = 0; x < w; ++x) {
+    const ShellHit& hit = rw.hits[x];
+    if (c.shadows && hit.hit && glm::dot(hit.position, c.sun_dir) > 0)
+      rw.lit.push_back(x), rw.lit_points.push_back(hit.position);
+  }
+  if (!rw.lit.empty()) cloud_towards_sun(c, rw.lit_points.data(), rw.lit_points.size(), si, rw.lengths);
   std::uint64_t marched = 0;
-#pragma omp parallel
-  {
-    // One row's buffers per thread for the whole pass (2000 rays: ~200 KiB), not per row.
-    std::vector<double> t_max(static_cast<std::size_t>(w));
-    std::vector<ShellHit> row_hits(static_cast<std::size_t>(w));
-    std::vector<int> lit;                 // the row's hits in sunlight
-    std::vector<earth::Vec3> lit_points;  // their positions
-    std::vector<CloudLengths> lengths;    // the cloud towards the Sun from them
-    // A row at a time: a band may hold as few as 16 rows, and chunks of several left one thread
-    // idle at the end of each pass.
-#pragma omp for schedule(dynamic, 1) reduction(+ : marched)
-    for (int y = rb.y0; y < rb.y1; ++y) {
-      const earth::Vec3* dirs = rb.row_dirs(y, w);
-      const std::size_t row = static_cast<std::size_t>(y - rb.y0) * w;
-      for (int x = 0; x < w; ++x) t_max[static_cast<std::size_t>(x)] = rb.t_earth[row + x];
-      march_shell(shell, c.sensor.position, dirs, t_max.data(), static_cast<std::size_t>(w), c.params.steps,
-                  c.params.bisection_iterations, row_hits.data(), c.spread);
-      // The clouds of the other shells towards the Sun from this row's hits.
-      lit.clear(), lit_points.clear();
-      for (int x = 0; x < w; ++x) {
-        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
-        if (c.shadows && hit.hit && glm::dot(hit.position, c.sun_dir) > 0)
-          lit.push_back(x), lit_points.push_back(hit.position);
-      }
-      if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), si, lengths);
-      std::size_t next_lit = 0;
-      for (int x = 0; x < w; ++x) {
-        const ShellHit& hit = row_hits[static_cast<std::size_t>(x)];
-        marched += hit.marched;
-        if (!hit.hit) continue;
-        const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
-        shade_hit(c, si, hit, dirs[x], shadowed ? &lengths[next_lit] : nullptr, rb.layer(row + x, si),
-                  rb.bands(row + x, si));
-        next_lit += shadowed;
-      }
-      progress.advance();
-    }
+  std::size_t next_lit = 0;
+  for (int x = 0; x < w; ++x) {
+    const ShellHit& hit = rw.hits[x];
+    marched += hit.marched;
+    if (!hit.hit) continue;
+    const bool shadowed = next_lit < rw.lit.size() && rw.lit[next_lit] == x;
+    shade_hit(c, si, hit, rw.dirs[x], shadowed ? &rw.lengths[next_lit] : nullptr, rw.layer(x, si), rw.bands(x, si));
+    next_lit += shadowed;
   }
   return marched;
 }
@@ -1140,17 +1111,19 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   const double mu_sun = glm::dot(c.sun_dir, up);
   const double m = t_tangent > 0 ? 2 * grazing_air_mass(h) : atmosphere::air_mass(std::max(glm::dot(up, d), 0.0));
   const std::size_t nb = c.band_count();
-  // Shell boundaries above the tangent height [m]; the transmittance of the path's part above each.
+  // Shell boundaries above the tangent height [m]; the transmittance of the path's part above
+  // each: the vertical column's (air mass air_mass(1)) to the power m.
   constexpr std::array<double, 12> above = {0, 1e3, 2e3, 4e3, 7e3, 11e3, 16e3, 22e3, 30e3, 40e3, 55e3, 80e3};
+  const double m_path = m * atmosphere::air_mass(1.0), m_sun = atmosphere::air_mass(std::max(mu_sun, 0.02));
   std::array<double, optics::max_band_count> t_prev{};
   AirSample air;
   for (std::size_t k = above.size(); k-- > 0;) {
     const double z = h + above[k];
-    c.earth.air(at, z, 1.0, std::max(mu_sun, 0.02), air);
+    c.earth.air_at_air_masses(at, z, m_path, m_sun, air);
     const double temperature =
         c.earth.temperature_k(at, z + 0.5 * (k + 1 < above.size() ? above[k + 1] - above[k] : 0));
     for (std::size_t b = 0; b < nb; ++b) {
-      const double t = std::pow(std::max(static_cast<double>(air.t_view[b]), 1e-30), m);
+      const double t = air.t_view[b];
       if (k + 1 == above.size()) t_prev[b] = 1.0;
       if (c.tables.bands[b]->thermal) out[b] += c.tables.planck[b]->forward(temperature) * std::max(0.0, t_prev[b] - t);
       t_prev[b] = t;
@@ -1172,11 +1145,11 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
 // below with T_s / (1 - R_a R_s), and the stack then reflects R_s + T_s^2 R_a / (1 - R_a R_s)).
 // Returns the visible optical depth; rad, trans, path_above (the air's radiance above the last
 // layer) and refl_above (the stack's reflectance seen from below) are per band.
-float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bpx, std::size_t px, const earth::Vec3& d,
+float composite_layers(const RenderContext& c, const RowWork& rw, std::size_t x, std::size_t px, const earth::Vec3& d,
                        RenderImage& img, double* rad, double* trans, double* path_above, double* refl_above) {
-  const std::size_t ns = rb.ns, nb = c.band_count();
+  const std::size_t ns = rw.ns, nb = c.band_count();
   std::array<std::size_t, weather::cloud_type_count> order{};
-  const Layer* pl = &rb.layers[bpx * ns];
+  const Layer* pl = &rw.layers[x * ns];
   for (std::size_t s = 0; s < ns; ++s) {  // by distance: insertion into at most four
     std::size_t j = s;
     for (; j > 0 && pl[order[j - 1]].t > pl[s].t; --j) order[j] = order[j - 1];
@@ -1186,7 +1159,7 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
   float tau = 0, clear = 1;  // the share of the pixel no layer covers
   for (std::size_t s = 0; s < ns; ++s) {
     const Layer& L = pl[order[s]];
-    const float* const lb = &rb.layer_bands[(bpx * ns + order[s]) * rb.lbf];
+    const float* const lb = &rw.layer_bands[(x * ns + order[s]) * rw.lbf];
     if (!std::isfinite(L.t)) break;
     clear *= 1 - L.coverage;
     img.cloud_fraction[px] = 1 - clear;
@@ -1216,9 +1189,9 @@ float composite_layers(const RenderContext& c, const RowBand& rb, std::size_t bp
 // the others.
 constexpr double ground_seen_min = 1e-4;
 
-// The band's rows into the image: each pixel's cloud layers, then what lies behind them, the
-// ground (its shadows found for the whole row together) or the sky.
-void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
+// Row y into the image: each pixel's cloud layers, then what lies behind them, the ground (its
+// shadows found for the whole row together) or the sky.
+void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img) {
   const int w = c.sensor.width;
   const std::size_t nb = c.band_count(), mb = optics::max_band_count;
   auto behind_seen = [nb](const double* trans) {  // some band's clouds pass more than ground_seen_min
@@ -1226,60 +1199,51 @@ void composite_rows(const RenderContext& c, RowBand& rb, RenderImage& img) {
     for (std::size_t b = 0; b < nb; ++b) seen = std::max(seen, trans[b]);
     return seen > ground_seen_min;
   };
-#pragma omp parallel
-  {
-    std::vector<double> rad(static_cast<std::size_t>(w) * mb), trans(rad.size()), path_above(rad.size()),
-        refl_above(rad.size());
-    std::vector<int> lit;
-    std::vector<earth::Vec3> lit_points;
-    std::vector<CloudLengths> lengths;
-    std::vector<std::uint8_t> seen(static_cast<std::size_t>(w));  // some band sees what lies behind
-#pragma omp for schedule(dynamic, 1)
-    for (int y = rb.y0; y < rb.y1; ++y) {
-      const earth::Vec3* dirs = rb.row_dirs(y, w);
-      lit.clear(), lit_points.clear();
-      for (int x = 0; x < w; ++x) {
-        const std::size_t px = static_cast<std::size_t>(y) * w + x;
-        const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
-        const auto xo = static_cast<std::size_t>(x) * mb;
-        img.cloud_optical_depth[px] =
-            composite_layers(c, rb, bpx, px, dirs[x], img, &rad[xo], &trans[xo], &path_above[xo], &refl_above[xo]);
-        seen[static_cast<std::size_t>(x)] = behind_seen(&trans[xo]);
-        // The ground points the Sun lights and that show through the clouds: their shadows.
-        if (!c.shadows || !std::isfinite(rb.t_earth[bpx])) continue;
-        const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * dirs[x];
-        if (seen[static_cast<std::size_t>(x)] && glm::dot(q, c.sun_dir) > 0) lit.push_back(x), lit_points.push_back(q);
+  auto sunlit_seen = [&c](const double* trans) {
+    return std::any_of(c.sunlit_bands.begin(), c.sunlit_bands.end(),
+                       [trans](std::size_t b) { return trans[b] > ground_seen_min; });
+  };
+  rw.lit.clear(), rw.lit_points.clear();
+  for (int x = 0; x < w; ++x) {
+    const std::size_t px = static_cast<std::size_t>(y) * w + x;
+    const auto xo = static_cast<std::size_t>(x) * mb;
+    img.cloud_optical_depth[px] = composite_layers(c, rw, static_cast<std::size_t>(x), px, rw.dirs[x], img, &rw.rad[xo],
+                                                   &rw.trans[xo], &rw.path_above[xo], &rw.refl_above[xo]);
+    rw.seen[x] = behind_seen(&rw.trans[xo]);
+    // The ground points the Sun lights and that show through the clouds in a band that sees
+    // sunlight: their shadows (the other bands do not read them).
+    if (!c.shadows || !rw.seen[x] || !std::isfinite(rw.t_earth[x])) continue;
+    const earth::Vec3 q = c.sensor.position + static_cast<double>(rw.t_earth[x]) * rw.dirs[x];
+    if (sunlit_seen(&rw.trans[xo]) && glm::dot(q, c.sun_dir) > 0) rw.lit.push_back(x), rw.lit_points.push_back(q);
+  }
+  if (!rw.lit.empty())
+    cloud_towards_sun(c, rw.lit_points.data(), rw.lit_points.size(), c.scene.shells.size(), rw.lengths);
+  std::size_t next_lit = 0;
+  for (int x = 0; x < w; ++x) {
+    const std::size_t px = static_cast<std::size_t>(y) * w + x;
+    const auto xo = static_cast<std::size_t>(x) * mb;
+    const earth::Vec3& d = rw.dirs[x];
+    std::array<double, optics::max_band_count> bg{}, bg_path{}, bg_refl{};
+    // What no band sees is left out (below): not found.
+    const bool found = rw.seen[x] != 0;
+    if (found && std::isfinite(rw.t_earth[x])) {
+      const earth::Vec3 q = c.sensor.position + static_cast<double>(rw.t_earth[x]) * d;
+      const earth::Geodetic g = earth::geodetic(q);
+      if (!(img.cloud_fraction[px] > 0)) {
+        img.latitude_deg[px] = static_cast<float>(g.lat_deg);
+        img.longitude_deg[px] = static_cast<float>(g.lon_deg);
       }
-      if (!lit.empty()) cloud_towards_sun(c, lit_points.data(), lit_points.size(), c.scene.shells.size(), lengths);
-      std::size_t next_lit = 0;
-      for (int x = 0; x < w; ++x) {
-        const std::size_t px = static_cast<std::size_t>(y) * w + x;
-        const std::size_t bpx = static_cast<std::size_t>(y - rb.y0) * w + x;
-        const auto xo = static_cast<std::size_t>(x) * mb;
-        const earth::Vec3& d = dirs[x];
-        std::array<double, optics::max_band_count> bg{}, bg_path{}, bg_refl{};
-        // What no band sees is left out (below): not found.
-        const bool found = seen[static_cast<std::size_t>(x)] != 0;
-        if (found && std::isfinite(rb.t_earth[bpx])) {
-          const earth::Vec3 q = c.sensor.position + static_cast<double>(rb.t_earth[bpx]) * d;
-          const earth::Geodetic g = earth::geodetic(q);
-          if (!(img.cloud_fraction[px] > 0)) {
-            img.latitude_deg[px] = static_cast<float>(g.lat_deg);
-            img.longitude_deg[px] = static_cast<float>(g.lon_deg);
-          }
-          const bool shadowed = next_lit < lit.size() && lit[next_lit] == x;
-          ground_radiance(c, g, q / glm::length(q), d, shadowed ? &lengths[next_lit] : nullptr, bg, bg_path, bg_refl);
-          next_lit += shadowed;
-        } else if (found) {
-          sky_radiance(c, d, bg);
-        }
-        for (std::size_t b = 0; b < nb; ++b) {  // the ground, as a layer of T = 0 under the clouds
-          const double behind =
-              std::max(0.0, bg_path[b] - path_above[xo + b]) + bg[b] / (1 - refl_above[xo + b] * bg_refl[b]);
-          img.radiance[b][px] =
-              static_cast<float>(rad[xo + b] + (trans[xo + b] > ground_seen_min ? trans[xo + b] * behind : 0.0));
-        }
-      }
+      const bool shadowed = next_lit < rw.lit.size() && rw.lit[next_lit] == x;
+      ground_radiance(c, g, q / glm::length(q), d, shadowed ? &rw.lengths[next_lit] : nullptr, bg, bg_path, bg_refl);
+      next_lit += shadowed;
+    } else if (found) {
+      sky_radiance(c, d, bg);
+    }
+    for (std::size_t b = 0; b < nb; ++b) {  // the ground, as a layer of T = 0 under the clouds
+      const double behind =
+          std::max(0.0, bg_path[b] - rw.path_above[xo + b]) + bg[b] / (1 - rw.refl_above[xo + b] * bg_refl[b]);
+      img.radiance[b][px] =
+          static_cast<float>(rw.rad[xo + b] + (rw.trans[xo + b] > ground_seen_min ? rw.trans[xo + b] * behind : 0.0));
     }
   }
 }
@@ -1313,7 +1277,8 @@ RenderImage blank_image(int w, int h, const std::vector<std::string>& bands) {
 }
 
 // One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, no
-// brightness temperatures (render() converts the final radiances).
+// brightness temperatures (render() converts the final radiances). Each row is traced in every
+// cloud type, then composited, by one thread; rows are handed out one at a time.
 RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                       const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
                       const SubPixel& sub, const EarthView& earth_view, Progress& progress) {
@@ -1322,19 +1287,31 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   const std::size_t ns = scene.shells.size();
   std::vector<double> seconds(ns, 0.0);
   std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
-  RowBand rb(c);
-  for (int y0 = 0; y0 < sensor.height; y0 += rb.rows) {
-    begin_rows(c, y0, std::min(sensor.height, y0 + rb.rows), rb);
-    // One pass per cloud type over the band's rows, each timed; layers kept for compositing.
-    for (std::size_t si = 0; si < ns; ++si) {
-      const auto t0 = std::chrono::steady_clock::now();
-      marched[si] += trace_type(c, si, rb, progress);
-      seconds[si] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int threads = 0;
+#pragma omp parallel
+  {
+    RowWork rw(c);
+    std::vector<double> my_seconds(ns, 0.0);
+    std::vector<std::uint64_t> my_marched(ns, 0);
+#pragma omp for schedule(dynamic, 1)
+    for (int y = 0; y < sensor.height; ++y) {
+      begin_row(c, y, rw);
+      for (std::size_t si = 0; si < ns; ++si) {  // each type timed
+        const auto t0 = std::chrono::steady_clock::now();
+        my_marched[si] += trace_row(c, si, rw);
+        my_seconds[si] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        progress.advance();
+      }
+      composite_row(c, y, rw, img);
     }
-    composite_rows(c, rb, img);
+#pragma omp critical
+    {
+      ++threads;
+      for (std::size_t si = 0; si < ns; ++si) seconds[si] += my_seconds[si], marched[si] += my_marched[si];
+    }
   }
-  for (std::size_t si = 0; si < ns; ++si) {
-    img.seconds_per_type.emplace_back(weather::name(scene.shells[si].type()), seconds[si]);
+  for (std::size_t si = 0; si < ns; ++si) {  // a type's time: its threads' time over their count
+    img.seconds_per_type.emplace_back(weather::name(scene.shells[si].type()), seconds[si] / threads);
     img.marched_rays_per_type.push_back(marched[si]);
   }
   return img;
@@ -1405,7 +1382,11 @@ double render_memory_bytes(int width, int height, const RenderParams& params) {
     const double nb = static_cast<double>(params.bands.size());
     per_pixel += (8 * nb + 8 + 8 + 2 + 8) + (21 + 4 * nb);  // the sums; one sub-pixel image
   }
-  return per_pixel * width * height + static_cast<double>(params.layer_budget_bytes);
+  // Each thread's row (RowWork): per pixel a layer per type, the ray, its hit and the compositing's sums.
+  const double nbd = static_cast<double>(params.bands.size());
+  const double row_per_pixel = weather::cloud_type_count * (sizeof(Layer) + 16 * nbd) + sizeof(ShellHit) +
+                               sizeof(earth::Vec3) + 17 + 4 * sizeof(double) * optics::max_band_count;
+  return per_pixel * width * height + thread_count() * row_per_pixel * width;
 }
 
 RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,

@@ -44,10 +44,6 @@ struct RenderParams {
   bool stratified_samples = true;
   std::uint64_t sample_seed = 0;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
-  /// Memory for the per-type layers of one band of image rows [bytes] (16 B plus 12 B per band, per pixel and
-  /// cloud type): the image is rendered and composited band by band, at least 8 rows per
-  /// thread. The result does not depend on it; only the peak memory does.
-  std::size_t layer_budget_bytes = std::size_t{64} << 20;
 
   /// Set `steps` (1..10000) and, from a count of rays per pixel that must be a square k^2 of
   /// 1..256, `samples_per_axis`; ValueError naming `key` otherwise.
@@ -69,6 +65,7 @@ struct RenderImage {
   std::vector<std::int8_t> cloud_type;                     ///< nearest type (0..3), -1 none
   std::vector<float> cloud_fraction;                       ///< share of the pixel's rays that meet cloud
   std::vector<float> latitude_deg, longitude_deg;          ///< nearest cloud or Earth point; NaN for space
+  /// Per cloud type, the time spent tracing it [s]: its threads' time over their count.
   std::vector<std::pair<std::string, double>> seconds_per_type;
   /// Per shell, in the order of seconds_per_type: the rays marched, those whose path through
   /// the shell the empty-space skip left possible cloud on (all sub-pixel rays counted). A

@@ -91,10 +91,24 @@ Sensor sensor_from(const ParamDict& c, int width, int height) {
 }
 
 earth::Vec3 FixedGridView::ray(const earth::Vec3& position, double x, double y) const {
-  const double xs = sector.x0_rad + (x - 0.5) * sector.dx_rad, ys = sector.y0_rad + (y - 0.5) * sector.dy_rad;
-  double lat = 0, lon = 0;
-  if (!projection.to_geodetic(xs, ys, lat, lon)) return projection.line_of_sight(xs, ys);
-  return glm::normalize(earth::radius_m * earth::unit_from_latlon(lat, lon) - position);
+  earth::Vec3 d;
+  row_rays(position, y, x, 1, &d);
+  return d;
+}
+
+void FixedGridView::row_rays(const earth::Vec3& position, double y, double dx, int width, earth::Vec3* out) const {
+  const double ys = sector.y0_rad + (y - 0.5) * sector.dy_rad, sin_y = std::sin(ys), cos_y = std::cos(ys);
+  const double cl = std::cos(projection.lon0_deg * earth::deg), sl = std::sin(projection.lon0_deg * earth::deg);
+  for (int i = 0; i < width; ++i) {
+    const double xs = sector.x0_rad + (i + dx - 0.5) * sector.dx_rad;
+    earth::Vec3 up;
+    if (!projection.geodetic_up_at_origin(std::sin(xs), std::cos(xs), sin_y, cos_y, up)) {
+      out[i] = projection.line_of_sight(xs, ys);
+      continue;
+    }
+    const earth::Vec3 e{up.x * cl - up.y * sl, up.x * sl + up.y * cl, up.z};  // turned to the origin's longitude
+    out[i] = glm::normalize(earth::radius_m * e - position);
+  }
 }
 
 Sensor Sensor::abi(const FixedGridView& view) {

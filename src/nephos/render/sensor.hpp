@@ -30,6 +30,9 @@ struct FixedGridView {
   /// geodetic latitude and longitude on the renderer's sphere (so that pixels co-register with
   /// ABI's); off the ellipsoid, the scan angles' own line of sight.
   earth::Vec3 ray(const earth::Vec3& position, double x, double y) const;
+  /// ray(position, i + dx, y) for the pixels i = 0 .. width - 1 into out, the row's scan angle
+  /// found once.
+  void row_rays(const earth::Vec3& position, double y, double dx, int width, earth::Vec3* out) const;
 };
 
 struct Sensor {
@@ -53,6 +56,7 @@ struct Sensor {
   /// width - 1]: by default their centres (ray(x + 0.5, row + 0.5), with the field of view's
   /// tangent computed once).
   void row_rays(int row, earth::Vec3* out, double dx = 0.5, double dy = 0.5) const {
+    if (fixed_grid) return fixed_grid->row_rays(position, row + dy, dx, width, out);
     const double t = std::tan(0.5 * fov_deg * earth::deg);
     for (int x = 0; x < width; ++x) out[x] = ray(x + dx, row + dy, t);
   }
