@@ -916,7 +916,10 @@ void cloud_towards_sun(const RenderContext& c, const earth::Vec3* points, std::s
   len.resize(n), chance.resize(n), footprint.resize(n);
   // Filtered: the pixel's cone as wide as at the point along the whole sunward ray.
   for (std::size_t i = 0; i < n; ++i) footprint[i] = c.spread * glm::length(points[i] - c.sensor.position);
-  const int steps = std::max(6, c.params.steps / 2);
+  // A quarter of the march's steps, at least 6, over the part of each path its altitude window
+  // leaves (cloud_length_towards): 0.14 K RMS in band 7 against 48 steps on a 4 km ABI disc,
+  // 0.16 K for twelve over the whole path (docs/render.md, cloud shadows).
+  const int steps = std::max(6, c.params.steps / 4);
   for (std::size_t si = 0; si < c.scene.shells.size(); ++si) {
     if (skip < c.scene.shells.size() && c.same_layer(si, skip)) continue;
     cloud_length_towards(c.scene.shells[si], points, c.sun_dir, n, steps, len.data(),

@@ -8,7 +8,7 @@ namespace nephos::render {
 
 void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o, const earth::Vec3& d, std::size_t n,
                           int steps, double* out, const double* footprint_m, double* chance) {
-  thread_local std::vector<double> t0, t1, px, py, pz, vals, fp, lo, hi, r2_lo, r2_hi;
+  thread_local std::vector<double> t0, t1, s0, s1, px, py, pz, vals, fp, lo, hi, r2_lo, r2_hi;
   thread_local std::vector<clouds::PathCoverage> paths;
   thread_local std::vector<std::uint32_t> live, first, cloudy;
   thread_local std::vector<earth::Vec3> pts;
@@ -50,7 +50,7 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     }
   }
   shell.altitude_window(px.data(), py.data(), pz.data(), np, lo.data(), hi.data());
-  r2_lo.clear(), r2_hi.clear();
+  r2_lo.clear(), r2_hi.clear(), s0.clear(), s1.clear();
   for (std::size_t i = 0; i < n; ++i) {
     out[i] = 0;
     if (chance) chance[i] = 0;
@@ -58,9 +58,19 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
     const double z_lo = *std::min_element(lo.data() + first[i], lo.data() + first[i + 1]);
     const double z_hi = *std::max_element(hi.data() + first[i], hi.data() + first[i + 1]);
     if (!(z_lo <= z_hi)) continue;
-    live.push_back(static_cast<std::uint32_t>(i));
     const auto [lo2, hi2] = clouds::window_squared_radii(z_lo, z_hi);
-    r2_lo.push_back(lo2), r2_hi.push_back(hi2);
+    // The steps go where the window lets cloud be: on a ray that climbs (o.d >= 0, every ray
+    // towards the Sun from a lit point), the part of its path between the window's radii. A
+    // path that never enters it meets no cloud.
+    double ta = t0[i], tb = t1[i];
+    const double b = glm::dot(o[i], d), oo = glm::dot(o[i], o[i]);
+    if (b >= 0) {
+      auto t_at_r2 = [&](double r2) { return oo >= r2 ? 0.0 : -b + std::sqrt(b * b + (r2 - oo)); };
+      ta = std::max(ta, t_at_r2(lo2)), tb = std::min(tb, t_at_r2(hi2));
+      if (!(ta < tb)) continue;
+    }
+    live.push_back(static_cast<std::uint32_t>(i));
+    r2_lo.push_back(lo2), r2_hi.push_back(hi2), s0.push_back(ta), s1.push_back(tb);
   }
   // The march: every live ray's step midpoints, classified together, step by step. Filtered,
   // only those in their ray's window: outside it they are u_min.
@@ -77,25 +87,20 @@ void cloud_length_towards(const clouds::CloudShell& shell, const earth::Vec3* o,
   cloudy.resize(nl);
   for (int k = 0; k < steps; ++k) {
     const double mid = (k + 0.5) / steps;  // the step's midpoint, as a share of the path
-    for (std::size_t j = 0; j < nl; ++j) {
-      const std::uint32_t i = live[j];
-      pts[j] = o[i] + (t0[i] + (t1[i] - t0[i]) * mid) * d;
-    }
+    for (std::size_t j = 0; j < nl; ++j) pts[j] = o[live[j]] + (s0[j] + (s1[j] - s0[j]) * mid) * d;
     if (footprint_m) {  // the expected length: each step's share of cloud, coverage(u)
       clouds::classify_filtered_in_windows(shell, pts.data(), fp.data(), r2_lo.data(), r2_hi.data(), nl, vals.data());
       const std::size_t nc = clouds::steps_with_cover(shell, vals.data(), nl, cloudy.data());
       for (std::size_t c = 0; c < nc; ++c) {
         const std::uint32_t j = cloudy[c];
-        const double ds = (t1[live[j]] - t0[live[j]]) / steps;
+        const double ds = (s1[j] - s0[j]) / steps;
         out[live[j]] += ds * paths[j].add(shell, vals[j], ds);
       }
       continue;
     }
     shell.classify(pts.data(), nl, vals.data());
-    for (std::size_t j = 0; j < nl; ++j) {
-      const std::uint32_t i = live[j];
-      if (vals[j] > thr) out[i] += (t1[i] - t0[i]) / steps;
-    }
+    for (std::size_t j = 0; j < nl; ++j)
+      if (vals[j] > thr) out[live[j]] += (s1[j] - s0[j]) / steps;
   }
   if (!chance) return;
   // The chance of meeting cloud: 0 or 1 for a point sample; filtered, as the view rays' (the
