@@ -97,7 +97,11 @@ struct PlanckTable {
   double inverse_from(double l, double guess) const {
     if (!(l > radiance.front())) return t_lo;
     if (l >= radiance.back()) return t_hi;
-    auto i = static_cast<std::size_t>(guess);
+    // One secant step from the guess's interval lands in l's (the table is straight over a few
+    // nodes) but where l lies within rounding of a node; the walk settles those.
+    const auto g = static_cast<std::size_t>(guess);
+    const double x = static_cast<double>(g) + (l - radiance[g]) / (radiance[g + 1] - radiance[g]);
+    auto i = static_cast<std::size_t>(std::clamp(x, 0.0, static_cast<double>(radiance.size() - 2)));
     while (radiance[i] > l) --i;
     while (radiance[i + 1] <= l) ++i;
     return t_lo + dt * (static_cast<double>(i) + (l - radiance[i]) / (radiance[i + 1] - radiance[i]));
