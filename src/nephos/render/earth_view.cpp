@@ -181,7 +181,6 @@ EarthView::Place EarthView::place(double lat, double lon) const {
 }
 
 void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out) const {
-  if (!atmosphere_) return air_at_air_masses(s, z, 1, 1, out);
   air_at_air_masses(s, z, atmosphere::air_mass(std::max(mu_view, 0.02)),
                     mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out);
 }

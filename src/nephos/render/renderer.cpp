@@ -835,7 +835,7 @@ struct RowWork {
   std::vector<double> rad, trans, path_above, refl_above;
   std::vector<std::uint8_t> seen;
 
-  RowWork(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
+  explicit RowWork(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
     const auto w = static_cast<std::size_t>(c.sensor.width);
     layers.resize(w * ns), layer_bands.resize(w * ns * lbf), t_earth.resize(w), dirs.resize(w);
     t_max.resize(w), hits.resize(w), seen.resize(w);

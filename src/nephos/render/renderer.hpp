@@ -134,7 +134,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
                    const RenderParams& params, const weather::WeatherGrid* weather = nullptr);
 
 /// About the most memory render() holds for a width x height image [bytes]: its outputs (21 B
-/// per pixel, 4 more per band and per thermal band), the per-type layers' budget, and with
+/// per pixel, 4 more per band and per thermal band), each thread's row of layers, and with
 /// k x k rays per pixel the sums and one sub-pixel image (~47 B + 12 B per band more). Checked
 /// against the machine's memory before any work.
 double render_memory_bytes(int width, int height, const RenderParams& params);
