@@ -67,15 +67,12 @@ bool FixedGridProjection::to_geodetic(double x, double y, double& lat_deg, doubl
 
 bool FixedGridProjection::geodetic_up_at_origin(double sin_x, double cos_x, double sin_y, double cos_y,
                                                 earth::Vec3& up) const {
-  // to_geodetic's latitude phi and longitude offset dl as sines and cosines, without the angles:
-  // tan phi = e s_z / rho, tan dl = -s_y / (H - s_x), rho = |(H - s_x, s_y)|; H - s_x > 0.
+  // The ellipsoid's normal at the point (H - s_x, -s_y, s_z) of the origin's frame, its
+  // coordinates over (a^2, a^2, b^2): the direction of to_geodetic's latitude and longitude.
   const double H = satellite_distance_m();
   double s_x, s_y, s_z;
   if (!ellipsoid_hit(H, sin_x, cos_x, sin_y, cos_y, s_x, s_y, s_z)) return false;
-  const double u = H - s_x, rho = std::sqrt(u * u + s_y * s_y), e_z = eq_over_pol2 * s_z;
-  const double hyp = std::sqrt(rho * rho + e_z * e_z);
-  const double cos_phi = rho / hyp;
-  up = earth::Vec3{cos_phi * u / rho, -cos_phi * s_y / rho, e_z / hyp};
+  up = glm::normalize(earth::Vec3{H - s_x, -s_y, eq_over_pol2 * s_z});
   return true;
 }
 
