@@ -32,6 +32,27 @@ double along(const std::vector<float>& z, const std::vector<float>& v, double zq
   const double f = (zq - z[hi - 1]) / (z[hi] - z[hi - 1]);
   return v[hi - 1] + f * (v[hi] - v[hi - 1]);
 }
+
+// The level interval of the optics levels z holding zq, as upper_bound's index hi (clamped to
+// 1..n-1) and zq's share f of the way from z[hi - 1] to z[hi] (clamped to 0..1). hint: as
+// along()'s, walked down when the queries descend.
+std::pair<std::size_t, double> optics_interval(const std::vector<float>& z, double zq, std::size_t* hint = nullptr) {
+  const std::size_t n = z.size();
+  const auto zf = static_cast<float>(zq);
+  std::size_t hi;
+  if (hint && *hint > 0 && *hint < n && z[*hint] > zf) {
+    hi = *hint;
+    while (hi > 0 && z[hi - 1] > zf) --hi;
+  } else {
+    hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
+  }
+  if (hint) *hint = hi;
+  hi = std::clamp<std::size_t>(hi, 1, n - 1);
+  return {hi, std::clamp((zq - z[hi - 1]) / (z[hi] - z[hi - 1]), 0.0, 1.0)};
+}
+
+// A quantity between two levels' values at share f.
+inline double between_levels(float lo, float hi, double f) { return lo + f * (hi - lo); }
 }  // namespace
 
 EarthView::EarthView(const weather::WeatherGrid* weather, const Sensor& sensor, const earth::SunPosition& sun,
@@ -197,12 +218,7 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     if (s.w[k] == 0) continue;
     const Node& node = nodes_[s.node[k]];
     if (node.optics_z.empty()) continue;
-    // The level interval holding z, once for every band.
-    const std::size_t n = node.optics_z.size();
-    std::size_t hi = static_cast<std::size_t>(
-        std::upper_bound(node.optics_z.begin(), node.optics_z.end(), static_cast<float>(z)) - node.optics_z.begin());
-    hi = std::clamp<std::size_t>(hi, 1, n - 1);
-    const double f = std::clamp((z - node.optics_z[hi - 1]) / (node.optics_z[hi] - node.optics_z[hi - 1]), 0.0, 1.0);
+    const auto [hi, f] = optics_interval(node.optics_z, z);  // once for every band
     const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
     const float* hi_level = &node.optics[hi * nb * optics_per_band];
     const double w = s.w[k], r = w * m_view / node.view_air_mass;
@@ -211,8 +227,8 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     for (std::size_t b = 0; b < nb; ++b) {
       const float* a = lo_level + b * optics_per_band;
       const float* c = hi_level + b * optics_per_band;
-      log_t[b] += r * (a[0] + f * (c[0] - a[0])), q[b] += w * (a[1] + f * (c[1] - a[1]));
-      log_sun[b] += r_sun * (a[2] + f * (c[2] - a[2])), tr[b] += w * (a[3] + f * (c[3] - a[3]));
+      log_t[b] += r * between_levels(a[0], c[0], f), q[b] += w * between_levels(a[1], c[1], f);
+      log_sun[b] += r_sun * between_levels(a[2], c[2], f), tr[b] += w * between_levels(a[3], c[3], f);
     }
     wsum += w, wsun += sun ? w : 0.0;
   }
@@ -233,6 +249,49 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     else if (wsun > 0 && bands_[b]->sunlit())  // the Sun's path: bands with sunlight
       out.t_sun[b] = static_cast<float>(t_sun[b]);
   }
+}
+
+void EarthView::view_transmittances(const Place& s, const double* z, std::size_t n, double m_view, float* t) const {
+  constexpr std::size_t mb = optics::max_band_count;
+  const std::size_t nb = bands_.size(), lanes = optics::band_lanes(nb);
+  for (std::size_t i = 0; i < n; ++i) std::fill(t + i * mb, t + i * mb + nb, 1.0f);
+  if (!atmosphere_ || n == 0) return;
+  thread_local std::vector<double> log_t;  // [altitude][lane]
+  log_t.assign(n * mb, 0.0);
+  double wsum = 0;
+  for (std::size_t k = 0; k < 4; ++k) {  // air_at_air_masses()'s sums, each altitude's own
+    if (s.w[k] == 0) continue;
+    const Node& node = nodes_[s.node[k]];
+    if (node.optics_z.empty()) continue;
+    const double r = s.w[k] * m_view / node.view_air_mass;
+    std::size_t hint = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto [hi, f] = optics_interval(node.optics_z, z[i], &hint);
+      const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
+      const float* hi_level = &node.optics[hi * nb * optics_per_band];
+      for (std::size_t b = 0; b < nb; ++b)
+        log_t[i * mb + b] += r * between_levels(lo_level[b * optics_per_band], hi_level[b * optics_per_band], f);
+    }
+    wsum += s.w[k];
+  }
+  if (wsum <= 0) return;
+  for (std::size_t i = 0; i < n; ++i) {
+    alignas(64) std::array<double, mb> t_pix;
+    for (std::size_t b = 0; b < lanes; ++b) t_pix[b] = std::exp(log_t[i * mb + b] / wsum);
+    for (std::size_t b = 0; b < nb; ++b) t[i * mb + b] = static_cast<float>(t_pix[b]);
+  }
+}
+
+void EarthView::temperature_k(const Place& s, const double* z, std::size_t n, double* out) const {
+  for (std::size_t i = 0; i < n; ++i) out[i] = 0;
+  double w = 0;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (!(s.w[q] > 0)) continue;
+    std::size_t hint = 0;
+    for (std::size_t i = 0; i < n; ++i) out[i] += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].t, z[i], &hint);
+    w += s.w[q];
+  }
+  for (std::size_t i = 0; i < n; ++i) out[i] /= w;
 }
 
 double EarthView::temperature_k(const Place& s, double z) const {

@@ -50,7 +50,15 @@ class EarthView {
   /// air() for a line of sight and a Sun path of given air masses (m_sun <= 0: the Sun is down);
   /// t_view is the vertical column's to the power m_view (exact for the grey nodes' scaling).
   void air_at_air_masses(const Place& at, double z_m, double m_view, double m_sun, AirSample& out) const;
+  /// air_at_air_masses()'s transmittance to the sensor alone (t_view), at n altitudes
+  /// z_m[0..n) of one place along one air mass, into t[i * optics::max_band_count + b], bit for
+  /// bit: each node's levels searched once and walked down when the altitudes descend (a limb
+  /// path's shells).
+  void view_transmittances(const Place& at, const double* z_m, std::size_t n, double m_view, float* t) const;
   double temperature_k(const Place& at, double z_m) const;
+  /// temperature_k() at n altitudes z_m[0..n) into out, bit for bit, searched as
+  /// view_transmittances().
+  void temperature_k(const Place& at, const double* z_m, std::size_t n, double* out) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;
   /// condensate_g_m3() at n altitudes z_m[0..n) into out, bit for bit: each node's levels

@@ -1117,27 +1117,36 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg);
   const double mu_sun = glm::dot(c.sun_dir, up);
   const double m = t_tangent > 0 ? 2 * grazing_air_mass(h) : atmosphere::air_mass(std::max(glm::dot(up, d), 0.0));
-  const std::size_t nb = c.band_count();
+  const std::size_t nb = c.band_count(), mb = optics::max_band_count;
   // Shell boundaries above the tangent height [m]; the transmittance of the path's part above
-  // each: the vertical column's (air mass air_mass(1)) to the power m.
+  // each: the vertical column's (air mass air_mass(1)) to the power m. The shells from the top
+  // down: their lower boundaries' altitudes and their middles' (the top one's, its boundary).
   constexpr std::array<double, 12> above = {0, 1e3, 2e3, 4e3, 7e3, 11e3, 16e3, 22e3, 30e3, 40e3, 55e3, 80e3};
+  constexpr std::size_t ns = above.size();
+  std::array<double, ns> z, z_mid, temperature;
+  for (std::size_t j = 0; j < ns; ++j) {
+    const std::size_t k = ns - 1 - j;
+    z[j] = h + above[k];
+    z_mid[j] = z[j] + 0.5 * (k + 1 < ns ? above[k + 1] - above[k] : 0);
+  }
   const double m_path = m * atmosphere::air_mass(1.0), m_sun = atmosphere::air_mass(std::max(mu_sun, 0.02));
-  std::array<double, optics::max_band_count> t_prev{};
-  AirSample air;
-  for (std::size_t k = above.size(); k-- > 0;) {
-    const double z = h + above[k];
-    c.earth.air_at_air_masses(at, z, m_path, m_sun, air);
-    const double temperature =
-        c.earth.temperature_k(at, z + 0.5 * (k + 1 < above.size() ? above[k + 1] - above[k] : 0));
+  alignas(64) std::array<float, ns * optics::max_band_count> t_view;
+  c.earth.view_transmittances(at, z.data(), ns, m_path, t_view.data());
+  c.earth.temperature_k(at, z_mid.data(), ns, temperature.data());
+  std::array<double, optics::max_band_count> t_prev;
+  t_prev.fill(1.0);
+  for (std::size_t j = 0; j < ns; ++j)
     for (std::size_t b = 0; b < nb; ++b) {
-      const double t = air.t_view[b];
-      if (k + 1 == above.size()) t_prev[b] = 1.0;
-      if (c.tables.bands[b]->thermal) out[b] += c.tables.planck[b]->forward(temperature) * std::max(0.0, t_prev[b] - t);
+      const double t = t_view[j * mb + b];
+      if (c.tables.bands[b]->thermal)
+        out[b] += c.tables.planck[b]->forward(temperature[j]) * std::max(0.0, t_prev[b] - t);
       t_prev[b] = t;
     }
-  }
+  if (c.sunlit_bands.empty() || mu_sun <= -0.1) return;
+  AirSample air;  // the Rayleigh optical depth above the tangent point
+  c.earth.air_at_air_masses(at, h, m_path, m_sun, air);
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!c.tables.bands[b]->sunlit() || mu_sun <= -0.1) continue;
+    if (!c.tables.bands[b]->sunlit()) continue;
     const double e0 =
         c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
     out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
@@ -1197,7 +1206,8 @@ float composite_layers(const RenderContext& c, const RowWork& rw, std::size_t x,
 constexpr double ground_seen_min = 1e-4;
 
 // Row y into the image: each pixel's cloud layers, then what lies behind them, the ground (its
-// shadows found for the whole row together) or the sky.
+// shadows found for the whole row together) or the sky; then the row's brightness temperatures
+// where the image has them, while its radiances are in cache.
 void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img) {
   const int w = c.sensor.width;
   const std::size_t nb = c.band_count(), mb = optics::max_band_count;
@@ -1253,13 +1263,20 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
           static_cast<float>(rw.rad[xo + b] + (rw.trans[xo + b] > ground_seen_min ? rw.trans[xo + b] * behind : 0.0));
     }
   }
+  const std::size_t row0 = static_cast<std::size_t>(y) * w;
+  for (std::size_t b = 0; b < nb; ++b)
+    if (!img.brightness_temperature[b].empty())
+      c.tables.planck[b]->inverse(&img.radiance[b][row0], static_cast<std::size_t>(w),
+                                  &img.brightness_temperature[b][row0]);
 }
 
-// An image of w x h pixels with every output allocated, clear sky. Its arrays (1.8 GB for a
-// 2 km ABI full disc in ten bands) are allocated and first touched one a thread at a time: the
-// page faults of fresh memory, not the zeroing, set the pace (0.88 s on one core of the test
-// VM, 0.44 s on two: docs/PERFORMANCE.md, design choices).
-RenderImage blank_image(int w, int h, const std::vector<std::string>& bands) {
+// An image of w x h pixels with every output allocated, clear sky, and the thermal bands'
+// brightness temperatures where `temperatures`. Its arrays (3 GB for a 2 km ABI full disc in ten
+// bands) are allocated and first touched one a thread at a time: the page faults of fresh
+// memory, not the zeroing, set the pace (1.8 GB of them in 0.88 s on one core of the test VM,
+// 0.44 s on two: docs/PERFORMANCE.md, design choices).
+RenderImage blank_image(int w, int h, const BandTables& tables, const std::vector<std::string>& bands,
+                        bool temperatures) {
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   RenderImage img;
   img.width = w;
@@ -1270,27 +1287,30 @@ RenderImage blank_image(int w, int h, const std::vector<std::string>& bands) {
   const std::array<std::vector<float>*, 5> fields = {&img.cloud_top_altitude_m, &img.cloud_optical_depth,
                                                      &img.cloud_fraction, &img.latitude_deg, &img.longitude_deg};
   const std::array<float, 5> clear = {nanf, 0.0f, 0.0f, nanf, nanf};
-  const std::size_t jobs = bands.size() + fields.size() + 1;
+  const std::size_t nb = bands.size(), jobs = 2 * nb + fields.size() + 1;
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::size_t j = 0; j < jobs; ++j) {
-    if (j < bands.size())
+    if (j < nb)
       img.radiance[j].assign(npx, 0.0f);
-    else if (j < bands.size() + fields.size())
-      fields[j - bands.size()]->assign(npx, clear[j - bands.size()]);
+    else if (j < 2 * nb) {
+      if (temperatures && tables.bands[j - nb]->thermal) img.brightness_temperature[j - nb].assign(npx, 0.0f);
+    } else if (j < 2 * nb + fields.size())
+      fields[j - 2 * nb]->assign(npx, clear[j - 2 * nb]);
     else
       img.cloud_type.assign(npx, -1);
   }
   return img;
 }
 
-// One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, no
-// brightness temperatures (render() converts the final radiances). Each row is traced in every
-// cloud type, then composited, by one thread; rows are handed out one at a time.
+// One ray per pixel, through the point sub.offset(x, y) of pixel (x, y); radiances, and the
+// thermal bands' brightness temperatures where `temperatures` (a sub-pixel image has none:
+// render() converts the mean radiances). Each row is traced in every cloud type, then
+// composited, by one thread; rows are handed out one at a time.
 RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, const earth::SunPosition& sun,
                       const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
-                      const SubPixel& sub, const EarthView& earth_view, Progress& progress) {
+                      const SubPixel& sub, const EarthView& earth_view, bool temperatures, Progress& progress) {
   const RenderContext c(scene, sensor, sun, params, weather, tables, sub, earth_view);
-  RenderImage img = blank_image(sensor.width, sensor.height, params.bands);
+  RenderImage img = blank_image(sensor.width, sensor.height, tables, params.bands, temperatures);
   const std::size_t ns = scene.shells.size();
   std::vector<double> seconds(ns, 0.0);
   std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
@@ -1324,7 +1344,8 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
   return img;
 }
 
-// The brightness temperature of each thermal band's radiance (the inverse band-mean Planck).
+// The brightness temperature of each thermal band's radiance (the inverse band-mean Planck), for
+// the mean of sub-pixel images (a one-ray image's are found a row at a time: composite_row()).
 void add_brightness_temperatures(RenderImage& img, const BandTables& tables) {
   // Allocated and first touched a band a thread at a time (blank_image()).
   const auto nb = static_cast<std::ptrdiff_t>(tables.bands.size());
@@ -1408,9 +1429,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const EarthView earth_view(weather, sensor, sun, tables.bands, params.atmosphere, params.surface_temperature_k,
                              scene.condensate_layer_m);
   if (k == 1) {
-    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view, progress);
+    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view, true, progress);
     img.seconds_atmosphere = earth_view.seconds_to_build();
-    add_brightness_temperatures(img, tables);
     return img;
   }
   // k x k sub-pixel rays per pixel, one whole image each, summed in a fixed order (the result
@@ -1427,7 +1447,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
     for (int i = 0; i < k; ++i) {
       RenderImage sub =
           render_at(scene, sensor, sun, params, weather, tables,
-                    SubPixel{i, j, k, params.stratified_samples, params.sample_seed}, earth_view, progress);
+                    SubPixel{i, j, k, params.stratified_samples, params.sample_seed}, earth_view, false, progress);
 #pragma omp parallel for schedule(static)
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
