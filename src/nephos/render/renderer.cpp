@@ -162,6 +162,7 @@ struct MarchScratch {
   std::vector<double> ma0, mla, mb0, ds, dx, dy, dz;
   std::vector<double> v_prev, lo, hi, depth_after;
   std::vector<int> k_hit;
+  std::vector<std::uint8_t> lit;  // write_hits: the hits whose normal is found
   // Filtered marches: the footprint at each point [m], per ray the largest u met and its step,
   // and the expected length of cloud along the path (sum of ds coverage(u)).
   std::vector<double> footprint, u_max, soft_length;
@@ -477,20 +478,23 @@ std::size_t refine_crossings(const clouds::CloudShell& shell, const earth::Vec3&
 // Stage 5: the nh hits with their surface normals from the CF gradient
 // (CloudShell::value_and_gradient: the textures' own gradients, the smooth parts by forward
 // differences with h ~ two fine voxels). A partial hit's normal is not the gradient's (below):
-// only the crossings' gradients are found, compacted (each point's gradient is its own).
-void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double spread, std::size_t nh, MarchScratch& w,
-                ShellHit* hits) {
+// only the crossings' gradients are found (those lit_by lights, where given), compacted (each
+// point's gradient is its own).
+void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double spread, std::size_t nh,
+                const std::optional<earth::Vec3>& lit_by, MarchScratch& w, ShellHit* hits) {
   const double h = std::max(2.0 * shell.feature_size_m(), 1.0);
   // A hit whose function crosses the threshold; else (filtered) a partial hit.
   auto crossing = [&](std::size_t j) { return !(spread > 0) || w.u_max[j] > 0; };
-  std::size_t nc = 0;  // the crossings, compacted into w.act
+  w.lit.resize(nh);
+  std::size_t nc = 0;  // the crossings whose normal is wanted, compacted into w.act
   w.act.resize(nh);
   for (std::size_t j = 0; j < nh; ++j) {
     const double s_hit = w.k_hit[j] == 0 ? 0.0 : w.hi[j];
     w.pts[j] = w.point(o, j, s_hit);
     w.footprint[j] = spread * w.t_at(j, s_hit);
+    w.lit[j] = crossing(j) && (!lit_by || glm::dot(w.pts[j], *lit_by) > 0);
     w.act[nc] = static_cast<std::uint32_t>(j);
-    nc += crossing(j);
+    nc += w.lit[j];
   }
   w.cross_pts.resize(nc), w.cross_footprint.resize(nc), w.cross_grads.resize(nc);
   for (std::size_t a = 0; a < nc; ++a) w.cross_pts[a] = w.pts[w.act[a]], w.cross_footprint[a] = w.footprint[w.act[a]];
@@ -506,7 +510,7 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // Depth: from the surface to the end of the crossing step, then the steps after it. Filtered:
     // the expected length of cloud along the path over the chance that the ray meets any.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
-    const earth::Vec3 g = crossing(j) ? w.cross_grads[a++] : earth::Vec3{};  // the crossings in order
+    const earth::Vec3 g = w.lit[j] ? w.cross_grads[a++] : earth::Vec3{};  // the crossings in order
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
     if (spread > 0) {
@@ -517,15 +521,17 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // A partial hit (the filtered function never crosses: cloud smaller than the footprint) is
     // at the ray's largest u, where the gradient is across the ray. The sub-pixel clouds' visible
     // surface, area-weighted, faces the sensor (Cauchy: the visible normals of a closed surface
-    // sum to its projected area along the view): their mean normal is -dir.
-    if (!crossing(j)) hit.normal = -dir, hit.coherence = 0;
+    // sum to its projected area along the view): their mean normal is -dir. An unlit crossing's
+    // is left as theirs: nothing reads it.
+    if (!w.lit[j]) hit.normal = -dir, hit.coherence = 0;
   }
 }
 
 }  // namespace
 
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
-                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread) {
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread,
+                 const std::optional<earth::Vec3>& lit_by) {
   // Rays advance in lockstep, one batched classify() per step over every ray still in the
   // shell, so the texture misses of different rays overlap (see CloudShell::classify). Every
   // per-ray stage is a branch-free loop over arrays that vectorises; a ray's result does not
@@ -542,7 +548,7 @@ void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const ea
   else
     march_steps(shell, o, steps, nr, w);
   const std::size_t nh = refine_crossings(shell, o, bisection_iterations, spread, nr, w);
-  write_hits(shell, o, spread, nh, w, hits);
+  write_hits(shell, o, spread, nh, lit_by, w, hits);
 }
 
 double facets_facing_every_way(double cos_phase) {
@@ -1039,8 +1045,10 @@ std::uint64_t trace_row(const RenderContext& c, std::size_t si, RowWork& rw) {
   const clouds::CloudShell& shell = c.scene.shells[si];
   const int w = c.sensor.width;
   for (int x = 0; x < w; ++x) rw.t_max[x] = rw.t_earth[x];
+  // The normals only where the Sun is up and a band sees it (sunlit_facets(), their reader).
   march_shell(shell, c.sensor.position, rw.dirs.data(), rw.t_max.data(), static_cast<std::size_t>(w), c.params.steps,
-              c.params.bisection_iterations, rw.hits.data(), c.spread);
+              c.params.bisection_iterations, rw.hits.data(), c.spread,
+              c.sunlit_bands.empty() ? earth::Vec3{0.0} : c.sun_dir);
   // The clouds of the other shells towards the Sun from this row's hits.
   rw.lit.clear(), rw.lit_points.clear();
   for (int x = 0; x < w; ++x) {

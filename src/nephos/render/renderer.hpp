@@ -6,6 +6,7 @@
 // radiometry per band and front-to-back compositing of the cloud types.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -112,8 +113,13 @@ ShellHit march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, cons
 /// with probability coverage / roulette_coverage, at that coverage);
 /// coverage is the chance that the path meets cloud (clouds::PathCoverage), depth the expected
 /// length of cloud over it.
+/// @param lit_by  where given, the surface normal (and coherence) is found only for the hits
+///   this direction lights from above their horizon (the Sun's, for the sunlit facets: the only
+///   reader of the normal); the others' are those of a partial hit (-d, 0). A zero vector: no
+///   hit's.
 void march_shell(const clouds::CloudShell& shell, const earth::Vec3& o, const earth::Vec3* d, const double* t_max,
-                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread = 0);
+                 std::size_t n, int steps, int bisection_iterations, ShellHit* hits, double spread = 0,
+                 const std::optional<earth::Vec3>& lit_by = std::nullopt);
 
 /// Where the ray of sub-pixel (i, j) of a k x k grid crosses pixel (x, y) [pixels from its
 /// top-left corner, 0..1 each]: the sub-pixel's centre, or with `stratified` a point uniform in

@@ -530,6 +530,53 @@ TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
   }
 }
 
+TEST(RendererOnGfs, NormalsAreFoundWhereTheSunLightsTheHit) {
+  // A filtered march told the Sun's direction finds the same hits as one that is not, with the
+  // same normals where the Sun is above the hit's horizon (the only place sunlit_facets() reads
+  // them) and a partial hit's (-d, coherence 0) elsewhere; told a zero vector, none. Faults
+  // caught: the Sun's direction ignored; the gradients matched to every crossing, not the lit.
+  const auto& r = real();
+  const Sensor geo = Sensor::geostationary(-75.2, 64, 64);
+  // The Sun square to the sensor: the terminator through the disc's centre.
+  const earth::Vec3 sun = glm::normalize(glm::cross(earth::Vec3{0.0, 0.0, 1.0}, geo.position));
+  const double spread = 1e-4;
+  std::size_t lit = 0, dark = 0;
+  for (const auto& shell : r.scene.shells)
+    for (int y = 2; y < geo.height; y += 3) {
+      std::vector<earth::Vec3> d(static_cast<std::size_t>(geo.width));
+      std::vector<double> t_max(d.size());
+      for (int x = 0; x < geo.width; ++x) {
+        d[static_cast<std::size_t>(x)] = geo.ray(x + 0.5, y + 0.5);
+        const auto e = earth::ray_sphere(geo.position, d[static_cast<std::size_t>(x)], earth::radius_m);
+        t_max[static_cast<std::size_t>(x)] = e && e->t0 > 0 ? e->t0 : 1e12;
+      }
+      std::vector<ShellHit> every(d.size()), by_sun(d.size()), none(d.size());
+      march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, every.data(), spread);
+      march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, by_sun.data(), spread, sun);
+      march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, none.data(), spread, earth::Vec3{0.0});
+      for (std::size_t x = 0; x < d.size(); ++x) {
+        ASSERT_EQ(every[x].hit, by_sun[x].hit);
+        if (!every[x].hit) continue;
+        EXPECT_EQ(every[x].t, by_sun[x].t);
+        EXPECT_EQ(every[x].depth_m, by_sun[x].depth_m);
+        EXPECT_EQ(every[x].coverage, by_sun[x].coverage);
+        EXPECT_EQ(none[x].normal, -d[x]);
+        EXPECT_EQ(none[x].coherence, 0.0);
+        if (glm::dot(every[x].position, sun) > 0) {
+          EXPECT_EQ(by_sun[x].normal, every[x].normal);
+          EXPECT_EQ(by_sun[x].coherence, every[x].coherence);
+          lit += every[x].coherence > 0;
+        } else {
+          EXPECT_EQ(by_sun[x].normal, -d[x]);
+          EXPECT_EQ(by_sun[x].coherence, 0.0);
+          dark += every[x].coherence > 0;
+        }
+      }
+    }
+  EXPECT_GT(lit, 50u);  // crossings on either side of the terminator: 187 and 108
+  EXPECT_GT(dark, 50u);
+}
+
 TEST(RendererOnGfs, RegionalWeatherMakesCloudsOnlyInItsRegion) {
   // Users often fetch a region, not the globe. A window of the real sample (30S-30N, 110-40W)
   // as a regional grid: outside it there is no weather, so no cloud, and no NaN radiance;
