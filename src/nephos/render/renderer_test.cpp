@@ -353,6 +353,21 @@ const RealScene& real() {
   return r;
 }
 
+// Row y of a sensor's pixel-centre rays, and each one's distance to the Earth (1e12 m: none).
+struct RayRow {
+  std::vector<earth::Vec3> d;
+  std::vector<double> t_max;
+};
+RayRow ray_row(const Sensor& s, int y) {
+  RayRow row;
+  for (int x = 0; x < s.width; ++x) {
+    row.d.push_back(s.ray(x + 0.5, y + 0.5));
+    const auto e = earth::ray_sphere(s.position, row.d.back(), earth::radius_m);
+    row.t_max.push_back(e && e->t0 > 0 ? e->t0 : 1e12);
+  }
+  return row;
+}
+
 TEST(RendererOnGfs, BitIdenticalForAnyThreadCount) {
   // Rows are handed to the threads as they come free: every output is the same, bit for bit, for
   // one, two and three threads, with one and four rays per pixel.
@@ -507,13 +522,7 @@ TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
   for (const auto& shell : r.scene.shells) {
     int hits = 0;
     for (int y = 4; y < geo.height; y += 4) {
-      std::vector<earth::Vec3> d(static_cast<std::size_t>(geo.width));
-      std::vector<double> t_max(d.size());
-      for (int x = 0; x < geo.width; ++x) {
-        d[static_cast<std::size_t>(x)] = geo.ray(x + 0.5, y + 0.5);
-        const auto e = earth::ray_sphere(geo.position, d[static_cast<std::size_t>(x)], earth::radius_m);
-        t_max[static_cast<std::size_t>(x)] = e && e->t0 > 0 ? e->t0 : 1e12;
-      }
+      const auto [d, t_max] = ray_row(geo, y);
       std::vector<ShellHit> row(d.size());
       march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, row.data());
       for (std::size_t x = 0; x < d.size(); ++x) {
@@ -543,13 +552,7 @@ TEST(RendererOnGfs, NormalsAreFoundWhereTheSunLightsTheHit) {
   std::size_t lit = 0, dark = 0;
   for (const auto& shell : r.scene.shells)
     for (int y = 2; y < geo.height; y += 3) {
-      std::vector<earth::Vec3> d(static_cast<std::size_t>(geo.width));
-      std::vector<double> t_max(d.size());
-      for (int x = 0; x < geo.width; ++x) {
-        d[static_cast<std::size_t>(x)] = geo.ray(x + 0.5, y + 0.5);
-        const auto e = earth::ray_sphere(geo.position, d[static_cast<std::size_t>(x)], earth::radius_m);
-        t_max[static_cast<std::size_t>(x)] = e && e->t0 > 0 ? e->t0 : 1e12;
-      }
+      const auto [d, t_max] = ray_row(geo, y);
       std::vector<ShellHit> every(d.size()), by_sun(d.size()), none(d.size());
       march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, every.data(), spread);
       march_shell(shell, geo.position, d.data(), t_max.data(), d.size(), 25, 7, by_sun.data(), spread, sun);
