@@ -34,15 +34,17 @@ double along(const std::vector<float>& z, const std::vector<float>& v, double zq
 }
 
 // The level interval of the optics levels z holding zq, as upper_bound's index hi (clamped to
-// 1..n-1) and zq's share f of the way from z[hi - 1] to z[hi] (clamped to 0..1). hint: as
-// along()'s, walked down when the queries descend.
+// 1..n-1) and zq's share f of the way from z[hi - 1] to z[hi] (clamped to 0..1). hint: an
+// index near the answer (a previous query's, or 1 at the ground), walked from down or up: the
+// same interval as the search.
 std::pair<std::size_t, double> optics_interval(const std::vector<float>& z, double zq, std::size_t* hint = nullptr) {
   const std::size_t n = z.size();
   const auto zf = static_cast<float>(zq);
   std::size_t hi;
-  if (hint && *hint > 0 && *hint < n && z[*hint] > zf) {
+  if (hint && *hint > 0 && *hint < n) {
     hi = *hint;
     while (hi > 0 && z[hi - 1] > zf) --hi;
+    while (hi < n && z[hi] <= zf) ++hi;
   } else {
     hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
   }
@@ -201,12 +203,13 @@ EarthView::Place EarthView::place(double lat, double lon) const {
   return s;
 }
 
-void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out) const {
+void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out, bool at_ground) const {
   air_at_air_masses(s, z, atmosphere::air_mass(std::max(mu_view, 0.02)),
-                    mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out);
+                    mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out, at_ground);
 }
 
-void EarthView::air_at_air_masses(const Place& s, double z, double m_view, double m_sun, AirSample& out) const {
+void EarthView::air_at_air_masses(const Place& s, double z, double m_view, double m_sun, AirSample& out,
+                                  bool at_ground) const {
   const std::size_t nb = bands_.size();
   for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
   if (!atmosphere_) return;
@@ -218,7 +221,8 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     if (s.w[k] == 0) continue;
     const Node& node = nodes_[s.node[k]];
     if (node.optics_z.empty()) continue;
-    const auto [hi, f] = optics_interval(node.optics_z, z);  // once for every band
+    std::size_t from = 1;  // at the ground: a level or two up from the bottom
+    const auto [hi, f] = optics_interval(node.optics_z, z, at_ground ? &from : nullptr);  // once for every band
     const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
     const float* hi_level = &node.optics[hi * nb * optics_per_band];
     const double w = s.w[k], r = w * m_view / node.view_air_mass;
@@ -294,6 +298,21 @@ void EarthView::temperature_k(const Place& s, const double* z, std::size_t n, do
   for (std::size_t i = 0; i < n; ++i) out[i] /= w;
 }
 
+double EarthView::temperature_k(const Place& s, double z, const double* z_below, std::size_t n,
+                                double* condensate) const {
+  for (std::size_t i = 0; i < n; ++i) condensate[i] = 0;
+  double t = 0, w = 0;
+  for (std::size_t q = 0; q < 4; ++q) {
+    if (!(s.w[q] > 0)) continue;
+    const Node& node = nodes_[s.node[q]];
+    std::size_t hint = 0;  // from z's interval, walked down the profile below it
+    t += s.w[q] * along(node.z, node.t, z, &hint), w += s.w[q];
+    if (!has_condensate_ || node.condensate.empty()) continue;
+    for (std::size_t i = 0; i < n; ++i) condensate[i] += s.w[q] * along(node.z, node.condensate, z_below[i], &hint);
+  }
+  return t / w;
+}
+
 double EarthView::temperature_k(const Place& s, double z) const {
   double t = 0, w = 0;
   for (std::size_t q = 0; q < 4; ++q)
@@ -357,6 +376,13 @@ surface::State EarthView::ground(const Place& s, std::array<double, optics::max_
   }
   g.broadband_albedo = al_w > 0.5 ? al / al_w : -1;
   return g;
+}
+
+double EarthView::land_share(const Place& s) const {
+  double land = 0;
+  for (std::size_t q = 0; q < 4; ++q)
+    if (s.w[q] != 0) land += s.w[q] * nodes_[s.node[q]].ground.share[1];
+  return land;
 }
 
 double EarthView::ground_height_m(const Place& s) const {

@@ -45,11 +45,13 @@ class EarthView {
   Place place(double lat_deg, double lon_deg) const;
 
   /// The air between altitude z [m] at a place and the sensor, for a line of sight of cos
-  /// zenith mu_view and the Sun at cos zenith mu_sun there.
-  void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out) const;
+  /// zenith mu_view and the Sun at cos zenith mu_sun there. at_ground: z is the ground's, and
+  /// each node's levels are walked up from the bottom, not searched (the same values).
+  void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out, bool at_ground = false) const;
   /// air() for a line of sight and a Sun path of given air masses (m_sun <= 0: the Sun is down);
   /// t_view is the vertical column's to the power m_view (exact for the grey nodes' scaling).
-  void air_at_air_masses(const Place& at, double z_m, double m_view, double m_sun, AirSample& out) const;
+  void air_at_air_masses(const Place& at, double z_m, double m_view, double m_sun, AirSample& out,
+                         bool at_ground = false) const;
   /// air_at_air_masses()'s transmittance to the sensor alone (t_view), at n altitudes
   /// z_m[0..n) of one place along one air mass, into t[i * optics::max_band_count + b], bit for
   /// bit: each node's levels searched once and walked down when the altitudes descend (a limb
@@ -59,6 +61,10 @@ class EarthView {
   /// temperature_k() at n altitudes z_m[0..n) into out, bit for bit, searched as
   /// view_transmittances().
   void temperature_k(const Place& at, const double* z_m, std::size_t n, double* out) const;
+  /// temperature_k() at z_m, and condensate_g_m3() at n altitudes z_below[0..n) under it into
+  /// condensate (a cloud's profile below its top), bit for bit: each node's levels searched
+  /// once for both.
+  double temperature_k(const Place& at, double z_m, const double* z_below, std::size_t n, double* condensate) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;
   /// condensate_g_m3() at n altitudes z_m[0..n) into out, bit for bit: each node's levels
@@ -82,6 +88,8 @@ class EarthView {
   /// The ground at a place; with sky_down, also the sky's downwelling thermal radiance there per
   /// band (atmosphere::ClearSkyColumn::sky_down; 0 without the atmosphere and in solar bands).
   surface::State ground(const Place& at, std::array<double, optics::max_band_count>* sky_down = nullptr) const;
+  /// ground(at).share[1], the land's share, alone.
+  double land_share(const Place& at) const;
   double ground_height_m(const Place& at) const;
   bool atmosphere() const { return atmosphere_; }
   double seconds_to_build() const { return seconds_; }

@@ -769,10 +769,10 @@ struct RenderContext {
 
 // A cloud element's microphysics: phase, in-cloud water content [g m^-3], effective radius [um]
 // and, from the weather, the in-cloud condensate path [g m^-2] its optical depth carries (0: the
-// water content over the element's own depth).
+// water content over the element's own depth); and its temperature [K].
 struct Microphysics {
   optics::Phase phase;
-  double water_content_g_m3, effective_radius_um, path_g_m2 = 0;
+  double water_content_g_m3, effective_radius_um, path_g_m2 = 0, temperature_k = 0;
 };
 
 // From the weather where it has condensate, over the cloud's share of the cell (the masks of the
@@ -782,27 +782,30 @@ struct Microphysics {
 //    weather's water whatever their rendered depth;
 //  - the in-cloud water content, for the effective radius, is the condensate's mean over the
 //    element's vertical extent below its top (thickness_m);
-//  - phase from the cloud's temperature, effective radius from the water content (particles()).
+//  - phase from the cloud's temperature at its top, effective radius from the water content
+//    (particles()).
 // Else the type's own.
 Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthView::Place& at, double alt,
-                          double thickness_m, const earth::Vec3& p, double t_cloud) {
+                          double thickness_m, const earth::Vec3& p) {
   const clouds::CloudTypeParams& cp = c.scene.shells[si].params();
   Microphysics m{cp.phase, cp.water_content_g_m3, cp.effective_radius_um};
+  // The condensate's mean over the cloud's vertical extent below its top (a top's own value
+  // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops),
+  // found with the top's temperature.
+  const bool profile = c.weather && c.earth.has_condensate();
+  std::array<double, 5> z, q_at;
+  for (std::size_t k = 0; k < z.size(); ++k) z[k] = alt - thickness_m * (static_cast<double>(k) + 0.5) / 5;
+  m.temperature_k = c.earth.temperature_k(at, alt, z.data(), profile ? z.size() : 0, q_at.data());
   if (!c.weather) return m;
-  if (c.earth.has_condensate()) {
+  if (profile) {
     const double share = c.cloud_share(si, p);
-    // The condensate's mean over the cloud's vertical extent below its top (a top's own value
-    // misses the water lower in the cloud: GFS's ice peaks at 300-400 hPa, under the anvil tops).
-    std::array<double, 5> z, q_at;
-    for (std::size_t k = 0; k < z.size(); ++k) z[k] = alt - thickness_m * (static_cast<double>(k) + 0.5) / 5;
-    c.earth.condensate_g_m3(at, z.data(), z.size(), q_at.data());
     double q = 0;
     for (const double qk : q_at) q += qk / 5;
     if (q > 1e-4) m.water_content_g_m3 = std::clamp(q / share, min_water_g_m3, max_water_g_m3);
     const double path = c.earth.condensate_layer(at, si).path_g_m2 / share;
     if (path > min_path_g_m2) m.path_g_m2 = path;
   }
-  std::tie(m.phase, m.effective_radius_um) = particles(m.water_content_g_m3, t_cloud, c.earth.ground(at).share[1]);
+  std::tie(m.phase, m.effective_radius_um) = particles(m.water_content_g_m3, m.temperature_k, c.earth.land_share(at));
   return m;
 }
 
@@ -978,10 +981,10 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   // The air and the Sun's path through it are here; the cloud's own temperature and condensate
   // are the weather's where the wind brought it from.
   const EarthView::Place at = c.earth.place(g.lat_deg, g.lon_deg), origin = c.weather_place(si, hit.position, at);
-  const double t_cloud = c.earth.temperature_k(origin, L.altitude);
-  c.tables.prefetch_planck(t_cloud);
   const double depth_vertical_m = hit.depth_m * mu_view;
-  const Microphysics m = microphysics(c, si, origin, L.altitude, depth_vertical_m, hit.position, t_cloud);
+  const Microphysics m = microphysics(c, si, origin, L.altitude, depth_vertical_m, hit.position);
+  const double t_cloud = m.temperature_k;
+  c.tables.prefetch_planck(t_cloud);
   // The visible optical depth along the line of sight, of the element's own microphysics, its
   // mean over the pixel.
   const double cover = hit.coverage;
@@ -1084,7 +1087,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   c.tables.prefetch_planck(ground.skin_temperature_k);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
-  c.earth.air(at, z, mu_view, mu_sun, air);
+  c.earth.air(at, z, mu_view, mu_sun, air, true);
   const Sunlight sun = sunlight(c, at, up, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);

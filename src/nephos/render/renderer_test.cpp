@@ -849,8 +849,10 @@ TEST(RendererOnGfs, FilteringRemovesMostOfTheAliasing) {
 }
 
 // The condensate profile below a cloud top (EarthView's batched lookup, each node's levels
-// searched once and walked from there) equals point-by-point lookups, bit for bit, for
-// altitudes in any order, at places over the whole globe; and GFS's condensate is there to find.
+// searched once and walked from there; and with the top's temperature, searched once for both)
+// equals point-by-point lookups, bit for bit, for altitudes in any order, at places over the
+// whole globe; and GFS's condensate is there to find. Fault caught: the profile with the top's
+// temperature read at its first altitude only.
 TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
   const auto& r = real();
   const EarthView ev(&r.w, Sensor::geostationary(-75.2, 8, 8), earth::sun_position(r.w.metadata().valid_time),
@@ -866,8 +868,12 @@ TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
       if ((i + j) % 3 == 1) std::reverse(z.begin(), z.end());                                  // ascending
       if ((i + j) % 3 == 2) std::swap(z[1], z[5]), std::swap(z[2], z[6]);
       ev.condensate_g_m3(at, z.data(), z.size(), batched.data());
+      std::array<double, 7> with_top{};  // below a top's temperature, as a cloud's microphysics asks
+      EXPECT_EQ(ev.temperature_k(at, top, z.data(), z.size(), with_top.data()), ev.temperature_k(at, top));
+      EXPECT_EQ(ev.land_share(at), ev.ground(at).share[1]);
       for (std::size_t k = 0; k < z.size(); ++k) {
         EXPECT_EQ(batched[k], ev.condensate_g_m3(at, z[k])) << "at row " << j << ", column " << i << ", z " << z[k];
+        EXPECT_EQ(with_top[k], batched[k]) << "at row " << j << ", column " << i << ", z " << z[k];
         wet += batched[k] > 1e-3, ++checked;
       }
     }
@@ -877,9 +883,10 @@ TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
 // A limb path's air (EarthView's batched lookups of the sky's shells: transmittances to the
 // sensor and temperatures, each node's levels searched once and walked from there) equals
 // point-by-point lookups (air_at_air_masses, temperature_k), bit for bit, in ten bands, for
-// altitudes in any order from below the ground to above the levels, at places over the globe.
+// altitudes in any order from below the ground to above the levels, at places over the globe;
+// and so does the ground's lookup, its levels walked up from the bottom.
 // Faults caught: the levels searched once per place for the first altitude; the walk down
-// stopping one level short.
+// stopping one level short; the walk up stopping one level short.
 TEST(EarthViewOnGfs, LimbShellLookupsMatchPointLookups) {
   const auto& r = real();
   std::vector<const optics::Band*> bands;
@@ -902,8 +909,11 @@ TEST(EarthViewOnGfs, LimbShellLookupsMatchPointLookups) {
       ev.view_transmittances(at, z.data(), z.size(), m, t.data());
       ev.temperature_k(at, z.data(), z.size(), temperature.data());
       for (std::size_t k = 0; k < z.size(); ++k) {
-        AirSample air;
+        AirSample air, walked;  // the ground's lookup walks up from the bottom level: the same
         ev.air_at_air_masses(at, z[k], m, 2.0, air);
+        ev.air_at_air_masses(at, z[k], m, 2.0, walked, true);
+        EXPECT_EQ(std::memcmp(&air, &walked, sizeof(AirSample)), 0)
+            << "row " << j << ", column " << i << ", z " << z[k];
         for (std::size_t b = 0; b < bands.size(); ++b) {
           EXPECT_EQ(t[k * mb + b], air.t_view[b])
               << "row " << j << ", column " << i << ", z " << z[k] << ", band " << b;
