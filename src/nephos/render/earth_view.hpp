@@ -54,8 +54,8 @@ class EarthView {
                          bool at_ground = false) const;
   /// air_at_air_masses()'s transmittance to the sensor alone (t_view), at n altitudes
   /// z_m[0..n) of one place along one air mass, into t[i * optics::max_band_count + b], bit for
-  /// bit: each node's levels searched once and walked down when the altitudes descend (a limb
-  /// path's shells).
+  /// bit: each node's levels searched once, then walked from the previous altitude's interval
+  /// (a few levels down a limb path's shells, which descend).
   void view_transmittances(const Place& at, const double* z_m, std::size_t n, double m_view, float* t) const;
   double temperature_k(const Place& at, double z_m) const;
   /// temperature_k() at n altitudes z_m[0..n) into out, bit for bit, searched as

@@ -1284,8 +1284,8 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
 // An image of w x h pixels with every output allocated, clear sky, and the thermal bands'
 // brightness temperatures where `temperatures`. Its arrays (3 GB for a 2 km ABI full disc in ten
 // bands) are allocated and first touched one a thread at a time: the page faults of fresh
-// memory, not the zeroing, set the pace (1.8 GB of them in 0.88 s on one core of the test VM,
-// 0.44 s on two: docs/PERFORMANCE.md, design choices).
+// memory, not the zeroing, set the pace (0.5-0.8 GB s^-1 a thread on the test VM, by the hour:
+// docs/PERFORMANCE.md).
 RenderImage blank_image(int w, int h, const BandTables& tables, const std::vector<std::string>& bands,
                         bool temperatures) {
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
