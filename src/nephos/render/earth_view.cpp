@@ -203,13 +203,14 @@ EarthView::Place EarthView::place(double lat, double lon) const {
   return s;
 }
 
-void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out, bool at_ground) const {
+void EarthView::air(const Place& s, double z, double mu_view, double mu_sun, AirSample& out,
+                    const LevelHint* hint) const {
   air_at_air_masses(s, z, atmosphere::air_mass(std::max(mu_view, 0.02)),
-                    mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out, at_ground);
+                    mu_sun > 0 ? atmosphere::air_mass(mu_sun) : -1.0, out, hint);
 }
 
 void EarthView::air_at_air_masses(const Place& s, double z, double m_view, double m_sun, AirSample& out,
-                                  bool at_ground) const {
+                                  const LevelHint* hint) const {
   const std::size_t nb = bands_.size();
   for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
   if (!atmosphere_) return;
@@ -221,8 +222,8 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     if (s.w[k] == 0) continue;
     const Node& node = nodes_[s.node[k]];
     if (node.optics_z.empty()) continue;
-    std::size_t from = 1;  // at the ground: a level or two up from the bottom
-    const auto [hi, f] = optics_interval(node.optics_z, z, at_ground ? &from : nullptr);  // once for every band
+    std::size_t from = hint ? (*hint)[k] : 0;
+    const auto [hi, f] = optics_interval(node.optics_z, z, hint ? &from : nullptr);  // once for every band
     const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
     const float* hi_level = &node.optics[hi * nb * optics_per_band];
     const double w = s.w[k], r = w * m_view / node.view_air_mass;
@@ -298,15 +299,17 @@ void EarthView::temperature_k(const Place& s, const double* z, std::size_t n, do
   for (std::size_t i = 0; i < n; ++i) out[i] /= w;
 }
 
-double EarthView::temperature_k(const Place& s, double z, const double* z_below, std::size_t n,
-                                double* condensate) const {
+double EarthView::temperature_k(const Place& s, double z, const double* z_below, std::size_t n, double* condensate,
+                                LevelHint* levels) const {
   for (std::size_t i = 0; i < n; ++i) condensate[i] = 0;
+  if (levels) levels->fill(0);
   double t = 0, w = 0;
   for (std::size_t q = 0; q < 4; ++q) {
     if (!(s.w[q] > 0)) continue;
     const Node& node = nodes_[s.node[q]];
     std::size_t hint = 0;  // from z's interval, walked down the profile below it
     t += s.w[q] * along(node.z, node.t, z, &hint), w += s.w[q];
+    if (levels) (*levels)[q] = hint;
     if (!has_condensate_ || node.condensate.empty()) continue;
     for (std::size_t i = 0; i < n; ++i) condensate[i] += s.w[q] * along(node.z, node.condensate, z_below[i], &hint);
   }

@@ -43,15 +43,21 @@ class EarthView {
     std::array<double, 4> w{};
   };
   Place place(double lat_deg, double lon_deg) const;
+  /// Per node of a place, a level index near an altitude (upper_bound's in its levels): a
+  /// lookup's at about the same altitude, or 1 at the ground. A lookup given one walks from it
+  /// instead of searching, to the same interval.
+  using LevelHint = std::array<std::size_t, 4>;
+  static constexpr LevelHint ground_levels{1, 1, 1, 1};
 
   /// The air between altitude z [m] at a place and the sensor, for a line of sight of cos
-  /// zenith mu_view and the Sun at cos zenith mu_sun there. at_ground: z is the ground's, and
-  /// each node's levels are walked up from the bottom, not searched (the same values).
-  void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out, bool at_ground = false) const;
+  /// zenith mu_view and the Sun at cos zenith mu_sun there; hint: where each node's levels are
+  /// walked from (the same values as searched).
+  void air(const Place& at, double z_m, double mu_view, double mu_sun, AirSample& out,
+           const LevelHint* hint = nullptr) const;
   /// air() for a line of sight and a Sun path of given air masses (m_sun <= 0: the Sun is down);
   /// t_view is the vertical column's to the power m_view (exact for the grey nodes' scaling).
   void air_at_air_masses(const Place& at, double z_m, double m_view, double m_sun, AirSample& out,
-                         bool at_ground = false) const;
+                         const LevelHint* hint = nullptr) const;
   /// air_at_air_masses()'s transmittance to the sensor alone (t_view), at n altitudes
   /// z_m[0..n) of one place along one air mass, into t[i * optics::max_band_count + b], bit for
   /// bit: each node's levels searched once, then walked from the previous altitude's interval
@@ -63,8 +69,9 @@ class EarthView {
   void temperature_k(const Place& at, const double* z_m, std::size_t n, double* out) const;
   /// temperature_k() at z_m, and condensate_g_m3() at n altitudes z_below[0..n) under it into
   /// condensate (a cloud's profile below its top), bit for bit: each node's levels searched
-  /// once for both.
-  double temperature_k(const Place& at, double z_m, const double* z_below, std::size_t n, double* condensate) const;
+  /// once for both. levels: each node's level index at z_m, a hint for other lookups there.
+  double temperature_k(const Place& at, double z_m, const double* z_below, std::size_t n, double* condensate,
+                       LevelHint* levels = nullptr) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;
   /// condensate_g_m3() at n altitudes z_m[0..n) into out, bit for bit: each node's levels

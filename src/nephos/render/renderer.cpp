@@ -769,10 +769,12 @@ struct RenderContext {
 
 // A cloud element's microphysics: phase, in-cloud water content [g m^-3], effective radius [um]
 // and, from the weather, the in-cloud condensate path [g m^-2] its optical depth carries (0: the
-// water content over the element's own depth); and its temperature [K].
+// water content over the element's own depth); and its temperature [K], with each weather
+// node's level there (a hint for the air's lookup at the same altitude).
 struct Microphysics {
   optics::Phase phase;
   double water_content_g_m3, effective_radius_um, path_g_m2 = 0, temperature_k = 0;
+  EarthView::LevelHint levels{};
 };
 
 // From the weather where it has condensate, over the cloud's share of the cell (the masks of the
@@ -795,7 +797,7 @@ Microphysics microphysics(const RenderContext& c, std::size_t si, const EarthVie
   const bool profile = c.weather && c.earth.has_condensate();
   std::array<double, 5> z, q_at;
   for (std::size_t k = 0; k < z.size(); ++k) z[k] = alt - thickness_m * (static_cast<double>(k) + 0.5) / 5;
-  m.temperature_k = c.earth.temperature_k(at, alt, z.data(), profile ? z.size() : 0, q_at.data());
+  m.temperature_k = c.earth.temperature_k(at, alt, z.data(), profile ? z.size() : 0, q_at.data(), &m.levels);
   if (!c.weather) return m;
   if (profile) {
     const double share = c.cloud_share(si, p);
@@ -999,7 +1001,7 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double asym =
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
-  c.earth.air(at, L.altitude, mu_air, mu_sun, air);
+  c.earth.air(at, L.altitude, mu_air, mu_sun, air, &m.levels);  // the levels at the weather's origin: near
   const Sunlight sun = sunlight(c, at, hit.position, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
@@ -1087,7 +1089,7 @@ void ground_radiance(const RenderContext& c, const earth::Geodetic& g, const ear
   c.tables.prefetch_planck(ground.skin_temperature_k);
   const double mu_view = std::max(0.02, -glm::dot(up, d)), mu_sun = glm::dot(c.sun_dir, up);
   AirSample air;
-  c.earth.air(at, z, mu_view, mu_sun, air, true);
+  c.earth.air(at, z, mu_view, mu_sun, air, &EarthView::ground_levels);
   const Sunlight sun = sunlight(c, at, up, air, mu_sun, towards_sun);
   path_radiance(c, air, mu_view, mu_sun, glm::dot(c.sun_dir, d), path);
   const double glint = surface::glint_reflectance(mu_sun, mu_view, -glm::dot(c.sun_dir, d), ground.wind_speed_m_s);

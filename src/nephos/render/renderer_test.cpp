@@ -884,7 +884,8 @@ TEST(EarthViewOnGfs, CondensateProfilesMatchPointLookups) {
 // sensor and temperatures, each node's levels searched once and walked from there) equals
 // point-by-point lookups (air_at_air_masses, temperature_k), bit for bit, in ten bands, for
 // altitudes in any order from below the ground to above the levels, at places over the globe;
-// and so does the ground's lookup, its levels walked up from the bottom.
+// and so do the ground's lookup, its levels walked up from the bottom, and a hit's, walked from
+// its temperature lookup's levels.
 // Faults caught: the levels searched once per place for the first altitude; the walk down
 // stopping one level short; the walk up stopping one level short.
 TEST(EarthViewOnGfs, LimbShellLookupsMatchPointLookups) {
@@ -908,11 +909,20 @@ TEST(EarthViewOnGfs, LimbShellLookupsMatchPointLookups) {
       const double m = 3.7;
       ev.view_transmittances(at, z.data(), z.size(), m, t.data());
       ev.temperature_k(at, z.data(), z.size(), temperature.data());
+      // A hit's air walks from its temperature lookup's levels, at a place 3 degrees away (the
+      // weather's origin of a carried cloud).
+      const EarthView::Place origin = ev.place(-85.5 + 4.9 * j, -176 + 4.97 * i);
       for (std::size_t k = 0; k < z.size(); ++k) {
-        AirSample air, walked;  // the ground's lookup walks up from the bottom level: the same
+        AirSample air, walked, hinted;  // the ground's walks up from the bottom level: the same
         ev.air_at_air_masses(at, z[k], m, 2.0, air);
-        ev.air_at_air_masses(at, z[k], m, 2.0, walked, true);
+        ev.air_at_air_masses(at, z[k], m, 2.0, walked, &EarthView::ground_levels);
+        EarthView::LevelHint levels{};
+        double unused = 0;
+        ev.temperature_k(origin, z[k], nullptr, 0, &unused, &levels);
+        ev.air_at_air_masses(at, z[k], m, 2.0, hinted, &levels);
         EXPECT_EQ(std::memcmp(&air, &walked, sizeof(AirSample)), 0)
+            << "row " << j << ", column " << i << ", z " << z[k];
+        EXPECT_EQ(std::memcmp(&air, &hinted, sizeof(AirSample)), 0)
             << "row " << j << ", column " << i << ", z " << z[k];
         for (std::size_t b = 0; b < bands.size(); ++b) {
           EXPECT_EQ(t[k * mb + b], air.t_view[b])
