@@ -510,7 +510,7 @@ void write_hits(const clouds::CloudShell& shell, const earth::Vec3& o, double sp
     // Depth: from the surface to the end of the crossing step, then the steps after it. Filtered:
     // the expected length of cloud along the path over the chance that the ray meets any.
     hit.depth_m = (w.k_hit[j] * w.ds[j] - s_hit) + w.depth_after[j];
-    const earth::Vec3 g = w.lit[j] ? w.cross_grads[a++] : earth::Vec3{};  // the crossings in order
+    const earth::Vec3 g = w.lit[j] ? w.cross_grads[a++] : earth::Vec3{};  // the lit crossings in order
     const double gl = glm::length(g);
     hit.normal = gl > 0 ? -g / gl : -dir;
     if (spread > 0) {
@@ -1001,7 +1001,9 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
   const double asym =
       m.phase == c.scene.shells[si].params().phase ? c.asymmetry[si] : (m.phase == optics::Phase::water ? 0.86 : 0.77);
   AirSample air;
-  c.earth.air(at, L.altitude, mu_air, mu_sun, air, &m.levels);  // the levels at the weather's origin: near
+  // Each node's levels walked from those of the temperature's lookup at the weather's origin:
+  // the same altitude (the same nodes but where the wind carried the cloud), so a level or two.
+  c.earth.air(at, L.altitude, mu_air, mu_sun, air, &m.levels);
   const Sunlight sun = sunlight(c, at, hit.position, air, mu_sun, towards_sun);
   std::array<double, optics::max_band_count> path;
   path_radiance(c, air, mu_air, mu_sun, glm::dot(c.sun_dir, dir), path);
