@@ -332,17 +332,6 @@ double EarthView::condensate_g_m3(const Place& s, double z) const {
   return c;
 }
 
-void EarthView::condensate_g_m3(const Place& s, const double* z, std::size_t n, double* out) const {
-  for (std::size_t i = 0; i < n; ++i) out[i] = 0;
-  if (!has_condensate_) return;
-  for (std::size_t q = 0; q < 4; ++q) {
-    if (!(s.w[q] > 0) || nodes_[s.node[q]].condensate.empty()) continue;
-    std::size_t hint = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      out[i] += s.w[q] * along(nodes_[s.node[q]].z, nodes_[s.node[q]].condensate, z[i], &hint);
-  }
-}
-
 EarthView::LayerCondensate EarthView::condensate_layer(const Place& s, std::size_t l) const {
   // The path bilinear; its mean and centroid temperature weighted by each node's share of it
   // (a node without condensate has neither).

@@ -74,10 +74,6 @@ class EarthView {
                        LevelHint* levels = nullptr) const;
   /// Grid-mean cloud condensate [g m^-3] at z (0 where the weather has none).
   double condensate_g_m3(const Place& at, double z_m) const;
-  /// condensate_g_m3() at n altitudes z_m[0..n) into out, bit for bit: each node's levels
-  /// searched once and walked down from there when the altitudes descend (a cloud's profile
-  /// below its top).
-  void condensate_g_m3(const Place& at, const double* z_m, std::size_t n, double* out) const;
   /// The condensate of one altitude layer at a place: its grid-mean path [g m^-2], its mean
   /// where it is (sum q^2 dz / sum q dz) [g m^-3] and the temperature at its centroid [K].
   struct LayerCondensate {
