@@ -49,10 +49,16 @@ const Band& band(const std::string& name);
 std::string band_names();  ///< "blue, vis, nir, ..."
 /// The most bands one render takes: every built-in band once.
 inline constexpr std::size_t max_band_count = 16;
-/// Lanes for loops over n bands padded with inert lanes to 8 or 16, multiples of every vector
-/// width: a batched loop (two_stream_slabs()) then runs every band through the same vector
-/// arithmetic, with no scalar remainder.
-inline constexpr std::size_t band_lanes(std::size_t n) { return n <= 8 ? 8 : max_band_count; }
+/// Doubles per vector in the build's vectorised loops: 256-bit vectors, which CMakeLists.txt
+/// asks GCC to prefer (its 512-bit band loops measured slower: docs/PERFORMANCE.md).
+inline constexpr std::size_t vector_doubles = 4;
+/// Lanes for loops over n bands padded with inert lanes to whole vectors (at least one): a
+/// batched loop (two_stream_slabs()) then runs every band through the same vector arithmetic,
+/// with no scalar remainder.
+inline constexpr std::size_t band_lanes(std::size_t n) {
+  return n <= vector_doubles ? vector_doubles : (n + vector_doubles - 1) / vector_doubles * vector_doubles;
+}
+static_assert(band_lanes(max_band_count) == max_band_count, "every band's lanes fit arrays of max_band_count");
 /// Band-mean extraterrestrial solar irradiance at 1 AU [W m^-2 um^-1] over [lo, hi] um, from the
 /// ASTM G173-03 extraterrestrial spectrum (0.28-4 um; Gueymard 2004), and beyond 4 um from the
 /// Sun as a 5772 K blackbody.
