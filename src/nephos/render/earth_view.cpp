@@ -215,8 +215,11 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
   for (std::size_t b = 0; b < nb; ++b) out.t_view[b] = 1, out.path[b] = 0, out.t_sun[b] = 1, out.tau_rayleigh[b] = 0;
   if (!atmosphere_) return;
   // Per band, the nodes' optical depths carried to the pixel's air masses (exact for a grey
-  // absorber) and their other quantities, weighted bilinearly; exponentiated once.
-  alignas(64) std::array<double, optics::max_band_count> log_t{}, q{}, log_sun{}, tr{};
+  // absorber) and their other quantities, weighted bilinearly, summed as the nodes store them (a
+  // band's four quantities one vector: log t_view, mean Planck radiance, log t_sun, Rayleigh
+  // depth); exponentiated once.
+  constexpr std::size_t nq = optics_per_band;
+  alignas(64) std::array<double, optics::max_band_count * nq> sums{};
   double wsum = 0, wsun = 0;
   for (std::size_t k = 0; k < 4; ++k) {
     if (s.w[k] == 0) continue;
@@ -224,16 +227,16 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     if (node.optics_z.empty()) continue;
     std::size_t from = hint ? (*hint)[k] : 0;
     const auto [hi, f] = optics_interval(node.optics_z, z, hint ? &from : nullptr);  // once for every band
-    const float* lo_level = &node.optics[(hi - 1) * nb * optics_per_band];
-    const float* hi_level = &node.optics[hi * nb * optics_per_band];
+    const float* lo_level = &node.optics[(hi - 1) * nb * nq];
+    const float* hi_level = &node.optics[hi * nb * nq];
     const double w = s.w[k], r = w * m_view / node.view_air_mass;
     const bool sun = m_sun > 0 && node.sun_air_mass > 0;
     const double r_sun = sun ? w * m_sun / node.sun_air_mass : 0.0;
     for (std::size_t b = 0; b < nb; ++b) {
-      const float* a = lo_level + b * optics_per_band;
-      const float* c = hi_level + b * optics_per_band;
-      log_t[b] += r * between_levels(a[0], c[0], f), q[b] += w * between_levels(a[1], c[1], f);
-      log_sun[b] += r_sun * between_levels(a[2], c[2], f), tr[b] += w * between_levels(a[3], c[3], f);
+      const float *a = lo_level + b * nq, *c = hi_level + b * nq;
+      double* sum = &sums[b * nq];
+      sum[0] += r * between_levels(a[0], c[0], f), sum[1] += w * between_levels(a[1], c[1], f);
+      sum[2] += r_sun * between_levels(a[2], c[2], f), sum[3] += w * between_levels(a[3], c[3], f);
     }
     wsum += w, wsun += sun ? w : 0.0;
   }
@@ -242,13 +245,15 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
   // padded lanes (log_t and log_sun are 0 beyond nb).
   const std::size_t lanes = optics::band_lanes(nb);
   const double wsun_or_1 = wsun > 0 ? wsun : 1.0;
-  alignas(64) std::array<double, optics::max_band_count> t_pix, t_sun;
+  alignas(64) std::array<double, optics::max_band_count> log_t{}, log_sun{}, t_pix, t_sun;
+  for (std::size_t b = 0; b < nb; ++b) log_t[b] = sums[b * nq], log_sun[b] = sums[b * nq + 2];
   for (std::size_t b = 0; b < lanes; ++b)
     t_pix[b] = std::exp(log_t[b] / wsum), t_sun[b] = std::exp(log_sun[b] / wsun_or_1);
   for (std::size_t b = 0; b < nb; ++b) {
     // The air's emission: its mean Planck radiance times the pixel's absorptance.
-    out.t_view[b] = static_cast<float>(t_pix[b]), out.path[b] = static_cast<float>(q[b] / wsum * (1 - t_pix[b]));
-    out.tau_rayleigh[b] = static_cast<float>(tr[b] / wsum);
+    out.t_view[b] = static_cast<float>(t_pix[b]),
+    out.path[b] = static_cast<float>(sums[b * nq + 1] / wsum * (1 - t_pix[b]));
+    out.tau_rayleigh[b] = static_cast<float>(sums[b * nq + 3] / wsum);
     if (m_sun <= 0)
       out.t_sun[b] = 0;
     else if (wsun > 0 && bands_[b]->sunlit())  // the Sun's path: bands with sunlight
