@@ -169,6 +169,13 @@ void print_abi_full_disc(const clouds::CloudScene& every, int step, const earth:
       "the types {:.1f} s, {:.0f} %), peak resident memory of the process so far {:.0f} MiB (goal <= 4096: {})\n",
       sensor.width, sensor.height, step > 1 ? fmt::format(" coarsened {}x: not comparable", step) : "", s,
       verdict(s <= 60, step == 1), tracing, 100 * tracing / s, peak, verdict(peak <= 4096, step == 1));
+  // Where the time went: the threads' time by stage, longest first, then the wall-clock set-up.
+  auto stages = img.seconds_per_stage;
+  std::sort(stages.begin(), stages.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+  std::string by_stage;
+  for (const auto& [name, seconds] : stages) by_stage += fmt::format("{} {:.1f} s, ", name, seconds);
+  std::cout << fmt::format("  by stage (each thread): {}atmosphere's tables {:.2f} s, outputs' arrays {:.2f} s\n",
+                           by_stage, img.seconds_atmosphere, img.seconds_outputs);
 }
 
 }  // namespace

@@ -254,6 +254,10 @@ class Scene {
     py::dict seconds;
     for (const auto& [name, secs] : img.seconds_per_type) seconds[py::str(name)] = secs;
     out["seconds_per_type"] = seconds;
+    py::dict stages;  // the threads' time by stage of the rows' work, and around them
+    for (const auto& [name, secs] : img.seconds_per_stage) stages[py::str(name)] = secs;
+    stages["atmosphere"] = img.seconds_atmosphere, stages["outputs"] = img.seconds_outputs;
+    out["seconds_per_stage"] = stages;
     out["sensor"] = r.sensor.description;
     out["time"] = r.time.iso();
     return out;
@@ -660,7 +664,9 @@ void def_weather_and_scene(py::module_& m) {
            "radiance_<band> [W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, "
            "cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
-           "seconds_per_type, sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
+           "seconds_per_type, seconds_per_stage (the threads' time in each stage of the rows' work: rays, march, "
+           "hit_shadows, hit_shading, layers, ground_shadows, ground_and_sky, brightness_temperatures; and the "
+           "wall-clock time of the atmosphere's tables and the outputs' arrays), sensor and time. sensor: 'geo:LON', 'leo:LAT,LON,ALT_KM,FOV_DEG', 'abi:east', "
            "'abi:west', 'abi:LON' (the GOES-R fixed grid: sector `scene` 'full', 'conus' or 'meso:LAT,LON', coarsened "
            "by abi_step; size is the sector's; returned as an xarray.Dataset with x/y scan angles and the CF grid "
            "mapping goes_imager_projection, unless as_dict) or a camera TOML file; time: ISO 8601 UTC (default: the "

@@ -109,6 +109,9 @@ class Render(unittest.TestCase):
         self.assertGreater(np.count_nonzero(img["cloud_type"] >= 0), 1000)  # the view holds clouds (3280 of 7680)
         self.assertEqual(img["time"], "2011-01-15T12:00:00Z")
         self.assertEqual(sorted(img["seconds_per_type"]), ["cirrus", "low_stratus"])
+        self.assertEqual(list(img["seconds_per_stage"]),
+                         ["rays", "march", "hit_shadows", "hit_shading", "layers", "ground_shadows", "ground_and_sky",
+                          "brightness_temperatures", "atmosphere", "outputs"])
         # The arrays are the renderer's own, handed over without a copy (a full disc's fields are
         # gigabytes): numpy does not own their memory, the capsule that frees it does.
         for name in ("radiance_vis", "brightness_temperature_lwir", "cloud_type", "latitude"):

@@ -823,6 +823,34 @@ struct CloudLengths {
   std::array<double, weather::cloud_type_count> length{}, chance{};
 };
 
+// The stages of render_stage_names(), and one thread's time in each: a lap ends the stage
+// begun at the previous lap (or start()).
+enum class Stage : std::size_t {
+  rays,
+  march,
+  hit_shadows,
+  hit_shading,
+  layers,
+  ground_shadows,
+  ground_and_sky,
+  brightness_temperatures,
+  count
+};
+constexpr std::array<const char*, static_cast<std::size_t>(Stage::count)> stage_names = {
+    "rays",   "march",          "hit_shadows",    "hit_shading",
+    "layers", "ground_shadows", "ground_and_sky", "brightness_temperatures"};
+static_assert(stage_names.back() != nullptr, "every Stage has its name");
+struct StageClock {
+  std::array<double, static_cast<std::size_t>(Stage::count)> seconds{};
+  std::chrono::steady_clock::time_point last;
+  void start() { last = std::chrono::steady_clock::now(); }
+  void lap(Stage s) {
+    const auto now = std::chrono::steady_clock::now();
+    seconds[static_cast<std::size_t>(s)] += std::chrono::duration<double>(now - last).count();
+    last = now;
+  }
+};
+
 // One thread's work on one image row at a time: each pixel's ray and distance to the Earth, each
 // cloud type's layer (16 + 16 nb B per pixel and type), and the scratch of the march's shadows and
 // the compositing. A row is traced in every type and composited by the thread that began it, so
@@ -845,6 +873,7 @@ struct RowWork {
   // below; whether some band sees what lies behind the clouds.
   std::vector<double> rad, trans, path_above, refl_above;
   std::vector<std::uint8_t> seen;
+  StageClock clock;  ///< this thread's time by stage
 
   explicit RowWork(const RenderContext& c) : ns(c.scene.shells.size()), lbf(layer_band_floats(c.band_count())) {
     const auto w = static_cast<std::size_t>(c.sensor.width);
@@ -858,12 +887,14 @@ struct RowWork {
 
 // Starts row y: layers cleared, each pixel's ray and distance to the Earth.
 void begin_row(const RenderContext& c, int y, RowWork& rw) {
+  rw.clock.start();
   std::fill(rw.layers.begin(), rw.layers.end(), Layer{});
   c.sub.row_rays(c.sensor, y, rw.dirs.data());
   for (int x = 0; x < c.sensor.width; ++x) {
     const auto e = earth::ray_sphere(c.sensor.position, rw.dirs[x], earth::radius_m);
     rw.t_earth[x] = e && e->t0 > 0 ? static_cast<float>(e->t0) : std::numeric_limits<float>::infinity();
   }
+  rw.clock.lap(Stage::rays);
 }
 
 // Sunlight arriving at a point through the air above and the clouds towards the Sun
@@ -1051,11 +1082,13 @@ void shade_hit(const RenderContext& c, std::size_t si, const ShellHit& hit, cons
 std::uint64_t trace_row(const RenderContext& c, std::size_t si, RowWork& rw) {
   const clouds::CloudShell& shell = c.scene.shells[si];
   const int w = c.sensor.width;
+  rw.clock.start();
   for (int x = 0; x < w; ++x) rw.t_max[x] = rw.t_earth[x];
   // The normals only where the Sun is up and a band sees it (sunlit_facets(), their reader).
   march_shell(shell, c.sensor.position, rw.dirs.data(), rw.t_max.data(), static_cast<std::size_t>(w), c.params.steps,
               c.params.bisection_iterations, rw.hits.data(), c.spread,
               c.sunlit_bands.empty() ? earth::Vec3{0.0} : c.sun_dir);
+  rw.clock.lap(Stage::march);
   // The clouds of the other shells towards the Sun from this row's hits.
   rw.lit.clear(), rw.lit_points.clear();
   for (int x = 0; x < w; ++x) {
@@ -1064,6 +1097,7 @@ std::uint64_t trace_row(const RenderContext& c, std::size_t si, RowWork& rw) {
       rw.lit.push_back(x), rw.lit_points.push_back(hit.position);
   }
   if (!rw.lit.empty()) cloud_towards_sun(c, rw.lit_points.data(), rw.lit_points.size(), si, rw.lengths);
+  rw.clock.lap(Stage::hit_shadows);
   std::uint64_t marched = 0;
   std::size_t next_lit = 0;
   for (int x = 0; x < w; ++x) {
@@ -1074,6 +1108,7 @@ std::uint64_t trace_row(const RenderContext& c, std::size_t si, RowWork& rw) {
     shade_hit(c, si, hit, rw.dirs[x], shadowed ? &rw.lengths[next_lit] : nullptr, rw.layer(x, si), rw.bands(x, si));
     next_lit += shadowed;
   }
+  rw.clock.lap(Stage::hit_shading);
   return marched;
 }
 
@@ -1235,6 +1270,7 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
     return std::any_of(c.sunlit_bands.begin(), c.sunlit_bands.end(),
                        [trans](std::size_t b) { return trans[b] > ground_seen_min; });
   };
+  rw.clock.start();
   rw.lit.clear(), rw.lit_points.clear();
   for (int x = 0; x < w; ++x) {
     const std::size_t px = static_cast<std::size_t>(y) * w + x;
@@ -1248,8 +1284,10 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
     const earth::Vec3 q = c.sensor.position + static_cast<double>(rw.t_earth[x]) * rw.dirs[x];
     if (sunlit_seen(&rw.trans[xo]) && glm::dot(q, c.sun_dir) > 0) rw.lit.push_back(x), rw.lit_points.push_back(q);
   }
+  rw.clock.lap(Stage::layers);
   if (!rw.lit.empty())
     cloud_towards_sun(c, rw.lit_points.data(), rw.lit_points.size(), c.scene.shells.size(), rw.lengths);
+  rw.clock.lap(Stage::ground_shadows);
   std::size_t next_lit = 0;
   for (int x = 0; x < w; ++x) {
     const std::size_t px = static_cast<std::size_t>(y) * w + x;
@@ -1278,11 +1316,13 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
           static_cast<float>(rw.rad[xo + b] + (rw.trans[xo + b] > ground_seen_min ? rw.trans[xo + b] * behind : 0.0));
     }
   }
+  rw.clock.lap(Stage::ground_and_sky);
   const std::size_t row0 = static_cast<std::size_t>(y) * w;
   for (std::size_t b = 0; b < nb; ++b)
     if (!img.brightness_temperature[b].empty())
       c.tables.planck[b]->inverse(&img.radiance[b][row0], static_cast<std::size_t>(w),
                                   &img.brightness_temperature[b][row0]);
+  rw.clock.lap(Stage::brightness_temperatures);
 }
 
 // An image of w x h pixels with every output allocated, clear sky, and the thermal bands'
@@ -1325,9 +1365,12 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
                       const RenderParams& params, const weather::WeatherGrid* weather, const BandTables& tables,
                       const SubPixel& sub, const EarthView& earth_view, bool temperatures, Progress& progress) {
   const RenderContext c(scene, sensor, sun, params, weather, tables, sub, earth_view);
+  const auto t_outputs = std::chrono::steady_clock::now();
   RenderImage img = blank_image(sensor.width, sensor.height, tables, params.bands, temperatures);
+  img.seconds_outputs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_outputs).count();
   const std::size_t ns = scene.shells.size();
   std::vector<double> seconds(ns, 0.0);
+  std::array<double, static_cast<std::size_t>(Stage::count)> stage_seconds{};
   std::vector<std::uint64_t> marched(ns, 0);  // integer sums: the same whatever the thread count
   int threads = 0;
 #pragma omp parallel
@@ -1350,12 +1393,15 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
     {
       ++threads;
       for (std::size_t si = 0; si < ns; ++si) seconds[si] += my_seconds[si], marched[si] += my_marched[si];
+      for (std::size_t k = 0; k < stage_seconds.size(); ++k) stage_seconds[k] += rw.clock.seconds[k];
     }
   }
   for (std::size_t si = 0; si < ns; ++si) {  // a type's time: its threads' time over their count
     img.seconds_per_type.emplace_back(weather::name(scene.shells[si].type()), seconds[si] / threads);
     img.marched_rays_per_type.push_back(marched[si]);
   }
+  for (std::size_t k = 0; k < stage_seconds.size(); ++k)
+    img.seconds_per_stage.emplace_back(render_stage_names()[k], stage_seconds[k] / threads);
   return img;
 }
 
@@ -1416,6 +1462,11 @@ void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {
     throw ValueError(fmt::format("must be a square number of rays per pixel (1, 4, 9, ... 256), got {}", rays),
                      {.key = key});
   samples_per_axis = k;
+}
+
+const std::vector<std::string>& render_stage_names() {
+  static const std::vector<std::string> names(stage_names.begin(), stage_names.end());
+  return names;
 }
 
 double render_memory_bytes(int width, int height, const RenderParams& params) {
@@ -1482,12 +1533,16 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
       if (img.seconds_per_type.empty()) {
         img.seconds_per_type = sub.seconds_per_type;
         img.marched_rays_per_type = sub.marched_rays_per_type;
+        img.seconds_per_stage = sub.seconds_per_stage;
       } else {
         for (std::size_t t = 0; t < img.seconds_per_type.size(); ++t) {
           img.seconds_per_type[t].second += sub.seconds_per_type[t].second;
           img.marched_rays_per_type[t] += sub.marched_rays_per_type[t];
         }
+        for (std::size_t st = 0; st < img.seconds_per_stage.size(); ++st)
+          img.seconds_per_stage[st].second += sub.seconds_per_stage[st].second;
       }
+      img.seconds_outputs += sub.seconds_outputs;
     }
   const double inv_n = 1.0 / (k * k);
   img.seconds_atmosphere = earth_view.seconds_to_build();

@@ -72,8 +72,19 @@ struct RenderImage {
   /// the shell the empty-space skip left possible cloud on (all sub-pixel rays counted). A
   /// shell's time follows this count, not the field of view (bench render).
   std::vector<std::uint64_t> marched_rays_per_type;
+  /// Per stage of the rows' work (render_stage_names(), in order), its threads' time over their
+  /// count [s]: where a render's time goes, whatever the cloud type.
+  std::vector<std::pair<std::string, double>> seconds_per_stage;
   double seconds_atmosphere = 0;  ///< building the atmosphere's and ground's tables for this sensor and Sun
+  double seconds_outputs = 0;     ///< allocating the outputs' arrays and touching their pages first
 };
+
+/// The stages of a row's work that RenderImage::seconds_per_stage times: the rays ("rays"), each
+/// type's march to its hits ("march"), the hits' shadow rays through the other types
+/// ("hit_shadows") and their shading ("hit_shading"), each pixel's layers added up ("layers"), the
+/// ground's shadow rays ("ground_shadows"), the ground's or sky's radiance behind the layers
+/// ("ground_and_sky") and the brightness temperatures ("brightness_temperatures").
+const std::vector<std::string>& render_stage_names();
 
 /// What one ray finds in one shell.
 struct ShellHit {
