@@ -12,42 +12,35 @@
 
 namespace nephos::render {
 namespace {
-// Linear interpolation of v over ascending z at zq, clamped.
-// v at zq, linear in z between the levels z (ascending), v's ends beyond them. hint: where a
-// previous query's interval ended (upper_bound's index); a query below it walks down from there
-// (a few levels for a descending profile), any other searches: the same interval either way.
+// upper_bound's index in the ascending levels z of zf: walked from `from` where that is a level
+// index (a neighbouring query's: a level or two away), else searched; the same index either way.
+std::size_t first_above(const std::vector<float>& z, float zf, std::size_t from) {
+  const std::size_t n = z.size();
+  if (from == 0 || from >= n) return static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
+  std::size_t hi = from;
+  while (hi > 0 && z[hi - 1] > zf) --hi;
+  while (hi < n && z[hi] <= zf) ++hi;
+  return hi;
+}
+
+// v at zq, linear in z between the levels z (ascending), v's ends beyond them. hint: in, where to
+// walk from (first_above(); 0: search); out, zq's interval (upper_bound's index), when inside.
 double along(const std::vector<float>& z, const std::vector<float>& v, double zq, std::size_t* hint = nullptr) {
   if (z.empty()) return 0;
   if (zq <= z.front()) return v.front();
   if (zq >= z.back()) return v.back();
-  const auto zf = static_cast<float>(zq);
-  std::size_t hi;
-  if (hint && *hint > 0 && *hint < z.size() && z[*hint] > zf) {
-    hi = *hint;
-    while (z[hi - 1] > zf) --hi;  // upper_bound: the first level above zf
-  } else {
-    hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
-  }
+  const std::size_t hi = first_above(z, static_cast<float>(zq), hint ? *hint : 0);
   if (hint) *hint = hi;
   const double f = (zq - z[hi - 1]) / (z[hi] - z[hi - 1]);
   return v[hi - 1] + f * (v[hi] - v[hi - 1]);
 }
 
 // The level interval of the optics levels z holding zq, as upper_bound's index hi (clamped to
-// 1..n-1) and zq's share f of the way from z[hi - 1] to z[hi] (clamped to 0..1). hint: an
-// index near the answer (a previous query's, or 1 at the ground), walked from down or up: the
-// same interval as the search.
+// 1..n-1) and zq's share f of the way from z[hi - 1] to z[hi] (clamped to 0..1). hint: as
+// along()'s (1 at the ground).
 std::pair<std::size_t, double> optics_interval(const std::vector<float>& z, double zq, std::size_t* hint = nullptr) {
   const std::size_t n = z.size();
-  const auto zf = static_cast<float>(zq);
-  std::size_t hi;
-  if (hint && *hint > 0 && *hint < n) {
-    hi = *hint;
-    while (hi > 0 && z[hi - 1] > zf) --hi;
-    while (hi < n && z[hi] <= zf) ++hi;
-  } else {
-    hi = static_cast<std::size_t>(std::upper_bound(z.begin(), z.end(), zf) - z.begin());
-  }
+  std::size_t hi = first_above(z, static_cast<float>(zq), hint ? *hint : 0);
   if (hint) *hint = hi;
   hi = std::clamp<std::size_t>(hi, 1, n - 1);
   return {hi, std::clamp((zq - z[hi - 1]) / (z[hi] - z[hi - 1]), 0.0, 1.0)};
