@@ -520,7 +520,9 @@ TEST(RendererOnGfs, MarchedRayCountsBoundTheCloudPixels) {
 // stages (march, the hits' shadows and shading) are the cloud types' time less the rows' limits
 // copied and the clocks' own calls (a microsecond a row and type against ~100: within 10 %), and
 // the shadow stages hold the shadow rays: over a sunlit disc a tenth of the time or more (a
-// quarter at 300² on the test VM), without shadows only the search for lit points (under 2 %).
+// quarter at 300² on the test VM), without shadows only the search for lit points (under 2 %;
+// the least of three renders, as a thread switched out within those microseconds would add a
+// few milliseconds to them when other tests share the cores).
 TEST(RendererOnGfs, StageTimesAccountForTheRender) {
   const auto& r = real();
   const Sensor s = Sensor::geostationary(-75.2, 300, 300);
@@ -529,8 +531,9 @@ TEST(RendererOnGfs, StageTimesAccountForTheRender) {
   p.set_bands({"vis", "lwir"}, "bands");
   RenderParams dark = p;
   dark.shadows = false;
-  for (const RenderParams& params : {p, dark}) {
-    const RenderImage img = render(r.scene, s, sun, params, &r.w);
+  double least_dark_share = 1;
+  for (const RenderParams* params : {&p, &dark, &dark, &dark}) {
+    const RenderImage img = render(r.scene, s, sun, *params, &r.w);
     ASSERT_EQ(img.seconds_per_stage.size(), render_stage_names().size());
     std::map<std::string, double> stage;
     double total = 0, types = 0;
@@ -545,14 +548,15 @@ TEST(RendererOnGfs, StageTimesAccountForTheRender) {
     EXPECT_LE(tracing, types);
     EXPECT_GT(tracing, 0.9 * types);
     const double shadows = stage["hit_shadows"] + stage["ground_shadows"];
-    std::printf("[ measured ] shadows %s: tracing stages %.4f of the types' %.4f s; shadow stages %.1f %% of %.4f s\n",
-                params.shadows ? "on" : "off", tracing, types, 100 * shadows / total, total);
-    if (params.shadows)
+    std::printf("[ measured ] shadows %s: tracing stages %.4f of the types' %.4f s; shadow stages %.2f %% of %.4f s\n",
+                params->shadows ? "on" : "off", tracing, types, 100 * shadows / total, total);
+    if (params->shadows)
       EXPECT_GT(shadows, 0.1 * total) << "the shadow rays' time is not in the shadow stages";
     else
-      EXPECT_LT(shadows, 0.02 * total) << "the shadow stages hold work other than the shadow rays";
+      least_dark_share = std::min(least_dark_share, shadows / total);
     EXPECT_GT(img.seconds_outputs, 0);
   }
+  EXPECT_LT(least_dark_share, 0.02) << "the shadow stages hold work other than the shadow rays";
 }
 
 TEST(RendererOnGfs, RaysMarchedTogetherMatchRaysMarchedAlone) {
