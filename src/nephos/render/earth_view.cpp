@@ -244,7 +244,7 @@ void EarthView::air_at_air_masses(const Place& s, double z, double m_view, doubl
     t_pix[b] = std::exp(log_t[b] / wsum), t_sun[b] = std::exp(log_sun[b] / wsun_or_1);
   for (std::size_t b = 0; b < nb; ++b) {
     // The air's emission: its mean Planck radiance times the pixel's absorptance.
-    out.t_view[b] = static_cast<float>(t_pix[b]),
+    out.t_view[b] = static_cast<float>(t_pix[b]);
     out.path[b] = static_cast<float>(sums[b * nq + 1] / wsum * (1 - t_pix[b]));
     out.tau_rayleigh[b] = static_cast<float>(sums[b * nq + 3] / wsum);
     if (m_sun <= 0)
