@@ -1195,12 +1195,11 @@ void sky_radiance(const RenderContext& c, const earth::Vec3& d, std::array<doubl
   if (c.sunlit_bands.empty() || mu_sun <= -0.1) return;
   AirSample air;  // the Rayleigh optical depth above the tangent point
   c.earth.air_at_air_masses(at, h, m_path, m_sun, air);
+  const double phase = atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d));
   for (std::size_t b = 0; b < nb; ++b) {
     if (!c.tables.bands[b]->sunlit()) continue;
-    const double e0 =
-        c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * atmosphere::air_mass(std::max(mu_sun, 0.02)));
-    out[b] += e0 * atmosphere::rayleigh_phase(glm::dot(c.sun_dir, d)) / (4 * M_PI) *
-              (1 - std::exp(-air.tau_rayleigh[b] * m)) * t_prev[b];
+    const double e0 = c.solar_irradiance(b) * std::exp(-air.tau_rayleigh[b] * m_sun);
+    out[b] += e0 * phase / (4 * M_PI) * (1 - std::exp(-air.tau_rayleigh[b] * m)) * t_prev[b];
   }
 }
 
