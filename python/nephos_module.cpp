@@ -173,7 +173,8 @@ class Scene {
 
   py::object render(const std::string& sensor, std::pair<int, int> size, const NameList& bands, int steps,
                     const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere,
-                    bool shadows, bool filter, const std::string& scene, int abi_step, bool as_dict) const {
+                    bool shadows, bool filter, const std::string& scene, int abi_step, bool brightness_temperatures,
+                    bool as_dict) const {
     render::ViewRequest view;
     view.sensor = sensor;
     std::tie(view.width, view.height) = size;
@@ -186,6 +187,7 @@ class Scene {
     view.filter = filter;
     view.scene = scene;
     view.abi_step = abi_step;
+    view.brightness_temperatures = brightness_temperatures;
     if (time) view.time = parse_time(*time, "time");
     require_image_size(view.width, view.height, "size");
     // The image's fields become the arrays handed to Python (no copy).
@@ -338,8 +340,11 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
     };
     img.bands.push_back(band);
     img.radiance.push_back(values(n));
-    img.brightness_temperature.push_back(optics::band(band).thermal ? values("brightness_temperature_" + band)
-                                                                    : std::vector<float>{});
+    // A thermal band's brightness temperatures where the dataset has them; else write_abi_l1b
+    // finds them from the radiances, as a render without them gives (the same values).
+    const std::string bt = "brightness_temperature_" + band;
+    const bool has_bt = dataset.attr("data_vars").attr("__contains__")(bt).cast<bool>();
+    img.brightness_temperature.push_back(optics::band(band).thermal && has_bt ? values(bt) : std::vector<float>{});
   }
   if (img.bands.empty()) throw ValueError("no radiance_<band> variable", {.key = "dataset"});
   std::filesystem::create_directories(dir);
@@ -657,11 +662,12 @@ void def_weather_and_scene(py::module_& m) {
            py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
            py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
            py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true, py::arg("scene") = "full",
-           py::arg("abi_step") = 1, py::arg("as_dict") = false,
+           py::arg("abi_step") = 1, py::arg("brightness_temperatures") = true, py::arg("as_dict") = false,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
            "'all', as a list or one comma-separated string; atmosphere, shadows: False leaves them out; filter: False "
            "renders point samples, detail finer than a pixel unfiltered): a dict of (height, width) arrays "
-           "radiance_<band> [W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands, "
+           "radiance_<band> [W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands (unless "
+           "brightness_temperatures is False: radiances alone, as an L1b job renders), "
            "cloud_top_altitude [m], "
            "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
            "seconds_per_type, seconds_per_stage (the threads' time in each stage of the rows' work: rays, march, "

@@ -134,23 +134,32 @@ PackedBand pack_band(const RenderImage& img, std::size_t bi, const optics::Band&
   const auto ni = static_cast<std::ptrdiff_t>(n);
   std::int64_t valid = 0, missing = 0, saturated = 0, undersaturated = 0, sum = 0;
   int lo = 32767, hi = -1;
+  // A thermal band's brightness temperatures: the image's, or found a piece at a time from its
+  // radiances where it holds none (an L1b job's render: brightness_temperatures()).
+  const std::vector<float>& image_bt = img.brightness_temperature[bi];
+  const bool find_bt = band.thermal && image_bt.empty();
+  constexpr std::size_t piece = 4096;  // pixels
+  const auto pieces = static_cast<std::ptrdiff_t>((n + piece - 1) / piece);
 #pragma omp parallel for schedule(static) reduction(+ : valid, missing, saturated, undersaturated, sum) \
     reduction(min : lo) reduction(max : hi)
-  for (std::ptrdiff_t k = 0; k < ni; ++k) {  // each pixel on its own: the same bits for any thread count
-    const auto i = static_cast<std::size_t>(k);
-    const double l = !on_earth[i]   ? NAN
-                     : band.thermal ? pc.radiance(img.brightness_temperature[bi][i])
-                                    : img.radiance[bi][i];
-    const bool ok = std::isfinite(l);
-    const double q = l / scale;
-    const int c = ok ? static_cast<int>(std::clamp(std::round(q), 0.0, counts)) : rad_fill;
-    p.rad[i] = static_cast<std::int16_t>(c);
-    p.dqf[i] = ok ? 0 : -1;
-    missing += on_earth[i] && !ok;
-    if (!ok) continue;
-    valid += 1, saturated += q > counts, undersaturated += q < 0;
-    sum += c;
-    lo = std::min(lo, c), hi = std::max(hi, c);
+  for (std::ptrdiff_t pc0 = 0; pc0 < pieces; ++pc0) {  // each pixel on its own: the same bits for any thread count
+    const std::size_t i0 = static_cast<std::size_t>(pc0) * piece, i1 = std::min(n, i0 + piece);
+    std::array<float, piece> found;
+    if (find_bt) brightness_temperatures(band, &img.radiance[bi][i0], i1 - i0, found.data());
+    const float* bt = find_bt ? found.data() : band.thermal ? image_bt.data() + i0 : nullptr;  // from i0
+    for (std::size_t i = i0; i < i1; ++i) {
+      const double l = !on_earth[i] ? NAN : band.thermal ? pc.radiance(bt[i - i0]) : img.radiance[bi][i];
+      const bool ok = std::isfinite(l);
+      const double q = l / scale;
+      const int c = ok ? static_cast<int>(std::clamp(std::round(q), 0.0, counts)) : rad_fill;
+      p.rad[i] = static_cast<std::int16_t>(c);
+      p.dqf[i] = ok ? 0 : -1;
+      missing += on_earth[i] && !ok;
+      if (!ok) continue;
+      valid += 1, saturated += q > counts, undersaturated += q < 0;
+      sum += c;
+      lo = std::min(lo, c), hi = std::max(hi, c);
+    }
   }
   p.valid = static_cast<std::int32_t>(valid), p.missing = static_cast<std::int32_t>(missing);
   p.saturated = static_cast<std::int32_t>(saturated), p.undersaturated = static_cast<std::int32_t>(undersaturated);

@@ -43,6 +43,7 @@ RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
   rp.atmosphere = view.atmosphere;
   rp.shadows = view.shadows;
   rp.filter = view.filter;
+  rp.brightness_temperatures = view.brightness_temperatures;
   rp.sample_seed = seed;
   return rp;
 }
@@ -80,7 +81,8 @@ std::pair<Sensor, RenderParams> checked_view(const ViewRequest& view, std::uint6
 }
 
 // The views a frame of `request` renders: its view, or for ABI L1b output one per native
-// resolution of its bands (finest first), each on that resolution's grid.
+// resolution of its bands (finest first), each on that resolution's grid, of radiances alone
+// (an L1b file's readers find brightness temperatures with its Planck coefficients).
 std::vector<ViewRequest> frame_views(const RenderRequest& request) {
   if (request.format == "netcdf") return {request.view};
   if (request.format != "abi-l1b") throw ValueError("'" + request.format + "': netcdf or abi-l1b", {.key = "format"});
@@ -94,6 +96,7 @@ std::vector<ViewRequest> frame_views(const RenderRequest& request) {
     for (const auto& b : bands)
       if (abi_native_resolution_km(optics::band(b).abi_band) == res) v.bands.push_back(b);
     v.abi_resolution_km = res;
+    v.brightness_temperatures = false;
     if (!v.bands.empty()) views.push_back(std::move(v));
   }
   return views;

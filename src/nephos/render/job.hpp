@@ -47,6 +47,7 @@ struct ViewRequest {
   std::string scene = "full";    ///< abi sensors: "full", "conus" or "meso:LAT,LON" (width, height: the sector's)
   int abi_step = 1;              ///< abi sensors: the fixed grid coarsened by this factor
   double abi_resolution_km = 0;  ///< abi sensors: 0.5, 1 or 2; 0: the coarsest native one of the bands
+  bool brightness_temperatures = true;  ///< the thermal bands' brightness temperatures too (false: radiances alone)
 
   /// The fixed grid's resolution of an abi sensor's view [km]: abi_resolution_km, or the coarsest
   /// native resolution of the bands.

@@ -1463,6 +1463,11 @@ void RenderParams::set_rays_per_pixel(int rays, const std::string& key) {
   samples_per_axis = k;
 }
 
+void brightness_temperatures(const optics::Band& band, const float* radiance, std::size_t n, float* out) {
+  if (!band.thermal) throw ValueError("'" + band.name + "' is not a thermal band", {.key = "bands"});
+  planck_table(band).inverse(radiance, n, out);
+}
+
 const std::vector<std::string>& render_stage_names() {
   static const std::vector<std::string> names(stage_names.begin(), stage_names.end());
   return names;
@@ -1470,7 +1475,8 @@ const std::vector<std::string>& render_stage_names() {
 
 double render_memory_bytes(int width, int height, const RenderParams& params) {
   double per_pixel = 4 + 4 + 1 + 4 + 8;  // cloud top, optical depth, type, fraction, latitude/longitude
-  for (const auto& name : params.bands) per_pixel += optics::band(name).thermal ? 8 : 4;
+  for (const auto& name : params.bands)
+    per_pixel += optics::band(name).thermal && params.brightness_temperatures ? 8 : 4;
   if (params.samples_per_axis > 1) {
     const double nb = static_cast<double>(params.bands.size());
     per_pixel += (8 * nb + 8 + 8 + 2 + 8) + (21 + 4 * nb);  // the sums; one sub-pixel image
@@ -1494,7 +1500,8 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const EarthView earth_view(weather, sensor, sun, tables.bands, params.atmosphere, params.surface_temperature_k,
                              scene.condensate_layer_m);
   if (k == 1) {
-    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view, true, progress);
+    RenderImage img = render_at(scene, sensor, sun, params, weather, tables, SubPixel{}, earth_view,
+                                params.brightness_temperatures, progress);
     img.seconds_atmosphere = earth_view.seconds_to_build();
     return img;
   }
@@ -1557,7 +1564,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   for (std::size_t b = 0; b < nb; ++b)
 #pragma omp parallel for schedule(static)
     for (std::size_t px = 0; px < npx; ++px) img.radiance[b][px] = static_cast<float>(radiance[b][px] * inv_n);
-  add_brightness_temperatures(img, tables);
+  if (params.brightness_temperatures) add_brightness_temperatures(img, tables);
 #pragma omp parallel for schedule(static)
   for (std::size_t px = 0; px < npx; ++px) {
     img.cloud_optical_depth[px] = static_cast<float>(tau[px] * inv_n);

@@ -44,6 +44,10 @@ struct RenderParams {
   /// exactly the area average of the image rendered k times finer). --sample-grid sets false.
   bool stratified_samples = true;
   std::uint64_t sample_seed = 0;
+  /// The thermal bands' brightness temperatures among the outputs (RenderImage); false: their
+  /// radiances alone, as an L1b file holds them (its readers convert with its Planck
+  /// coefficients), 4 B less per pixel and band.
+  bool brightness_temperatures = true;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
 
   /// Set `steps` (1..10000) and, from a count of rays per pixel that must be a square k^2 of
@@ -78,6 +82,10 @@ struct RenderImage {
   double seconds_atmosphere = 0;  ///< building the atmosphere's and ground's tables for this sensor and Sun
   double seconds_outputs = 0;     ///< allocating the outputs' arrays and touching their pages first
 };
+
+/// The brightness temperatures [K] of n radiances [W m^-2 sr^-1 um^-1] of a thermal band: the
+/// inverse of its band-mean Planck function (100-400 K), as RenderImage holds them.
+void brightness_temperatures(const optics::Band& band, const float* radiance, std::size_t n, float* out);
 
 /// The stages of a row's work that RenderImage::seconds_per_stage times: the rays ("rays"), each
 /// type's march to its hits ("march"), the hits' shadow rays through the other types

@@ -463,6 +463,36 @@ TEST(RendererOnGfs, EveryBandInOneRenderAsInRendersOfItsOwn) {
   EXPECT_THROW(render(r.scene, s, sun, unchecked, &r.w), ValueError);
 }
 
+TEST(RendererOnGfs, RadiancesAloneAreTheSameRadiances) {
+  // An image without brightness temperatures (RenderParams::brightness_temperatures false, as an
+  // L1b job renders) holds the same radiances bit for bit, one ray or four per pixel, and
+  // brightness_temperatures() of them gives the full image's own, bit for bit; a solar band has
+  // none to give. Faults caught: the flag ignored with four rays (temperatures kept); the inverse
+  // of another band's table.
+  const auto& r = real();
+  const Sensor s = Sensor::geostationary(-75.2, 40, 30);
+  const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
+  for (const int rays : {1, 4}) {
+    RenderParams full;
+    full.set_bands({"vis", "mwir", "lwir"}, "bands");
+    full.set_rays_per_pixel(rays, "samples");
+    RenderParams alone = full;
+    alone.brightness_temperatures = false;
+    const RenderImage with = render(r.scene, s, sun, full, &r.w), without = render(r.scene, s, sun, alone, &r.w);
+    EXPECT_LT(render_memory_bytes(40, 30, alone), render_memory_bytes(40, 30, full));
+    for (std::size_t b = 0; b < 3; ++b) {
+      EXPECT_EQ(with.radiance[b], without.radiance[b]) << b << ", " << rays << " rays";
+      EXPECT_TRUE(without.brightness_temperature[b].empty()) << b << ", " << rays << " rays";
+      if (with.brightness_temperature[b].empty()) continue;
+      std::vector<float> found(without.radiance[b].size());
+      brightness_temperatures(optics::band(full.bands[b]), without.radiance[b].data(), found.size(), found.data());
+      EXPECT_EQ(found, with.brightness_temperature[b]) << b << ", " << rays << " rays";
+    }
+  }
+  float bt = 0, l = 10;
+  EXPECT_THROW(brightness_temperatures(optics::band("vis"), &l, 1, &bt), ValueError);
+}
+
 TEST(RendererOnGfs, ASceneGivenAnotherScenesTexturesRendersAsIfItHadBakedThem) {
   // The textures are a pure function of the parameters and the seed, so a scene that reuses
   // another's (clouds::build_scene's last argument) must render bit for bit like one that
