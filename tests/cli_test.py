@@ -413,6 +413,38 @@ class AbiL1b(unittest.TestCase):
         self.assertGreater(valid.sum(), 250000)
         self.assertLess(np.max(np.abs(reflectance[valid] - expected[valid])), 0.1)
 
+    def test_rad_and_dqf_are_stored_as_noaas(self):
+        # Rad and DQF in chunks of 226 x 226 pixels, shuffled and deflated at level 1, as NOAA's
+        # L1b files store them (ncdump -hs); a chunk no larger than its image (the 64 km bands'
+        # 169 pixels a side; band 2's 678 are three chunks). Faults caught: netCDF-C's default
+        # chunks (band 2's whole image), DQF left uncompressed.
+        import netCDF4
+        sides = []
+        for f in sorted((Path(self.tmp.name) / "l1b").glob("*.nc")):
+            nc = netCDF4.Dataset(f)
+            n = nc.dimensions["x"].size
+            sides.append(n)
+            for v in ("Rad", "DQF"):
+                self.assertEqual(nc[v].chunking(), [min(226, n)] * 2, f"{f.name} {v}")
+                filters = nc[v].filters()
+                self.assertTrue(filters["zlib"] and filters["shuffle"], f"{f.name} {v}")
+                self.assertEqual(filters["complevel"], 1, f"{f.name} {v}")
+        self.assertEqual(sorted(set(sides)), [169, 678])
+
+    def test_a_file_that_cannot_be_written_stops_the_job(self):
+        # Band 8's file name taken by a directory: the job stops with exit 2 naming that file; the
+        # file before it is whole, none after it is begun, no temporary file is left. Faults
+        # caught: the writer's error lost with its thread (exit 0), files written past it.
+        d = Path(self.tmp.name) / "unwritable"
+        (d / "OR_ABI-L1b-RadF-M6C08_G16_s20110151500000_e20110151510000_c20110151510000.nc").mkdir(parents=True)
+        r = run("render", "--sensor", "abi:east", "--abi-step", "32", "--texture", "32", "--time",
+                "2011-01-15T15:00:00Z", "--bands", "mwir,wv62,wv69,lwir", "--format", "abi-l1b", "--out", d)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("M6C08_G16", r.stderr)
+        self.assertEqual(sorted(p.name[:21] for p in d.iterdir()), ["OR_ABI-L1b-RadF-M6C07", "OR_ABI-L1b-RadF-M6C08"])
+        import netCDF4
+        self.assertEqual(netCDF4.Dataset(next(d.glob("*C07*.nc")))["Rad"].shape, (169, 169))
+
     def test_satpys_geolocation_is_nephos_s(self):
         # pyresample's longitudes and latitudes of the file's area (PROJ's geos projection from x,
         # y and goes_imager_projection) against the Earth point nephos's pixel saw, on cloud-free

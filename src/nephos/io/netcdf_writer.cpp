@@ -1,5 +1,8 @@
 #include "nephos/io/netcdf_writer.hpp"
 
+#include <algorithm>
+
+#include <fmt/format.h>
 #include <netcdf.h>
 
 #include "nephos/core/atomic_file.hpp"
@@ -19,22 +22,31 @@ void NetcdfWriter::check(int status, const std::string& what) const {
   if (status != NC_NOERR) throw IoError(what + ": " + nc_strerror(status), {.file = path_.string()});
 }
 
-int NetcdfWriter::dim_id(const std::string& name) const {
-  for (const auto& [n, id] : dims_)
-    if (n == name) return id;
+const NetcdfWriter::Dimension& NetcdfWriter::dimension(const std::string& name) const {
+  for (const Dimension& d : dims_)
+    if (d.name == name) return d;
   throw ValueError("unknown dimension '" + name + "'", {.file = path_.string()});
 }
 
 int NetcdfWriter::add_dimension(const std::string& name, std::size_t length) {
   int id = 0;
   check(nc_def_dim(ncid_, name.c_str(), length, &id), "cannot define dimension " + name);
-  dims_.emplace_back(name, id);
+  dims_.push_back({name, id, length});
   return id;
 }
 
-int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims) {
+int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims,
+                               const std::vector<std::size_t>& chunks) {
+  if (!chunks.empty() && chunks.size() != dims.size())
+    throw ValueError(fmt::format("variable {}: {} chunk lengths for {} dimensions", name, chunks.size(), dims.size()),
+                     {.file = path_.string()});
   std::vector<int> ids;
-  for (const auto& d : dims) ids.push_back(dim_id(d));
+  std::vector<std::size_t> chunk;
+  for (std::size_t k = 0; k < dims.size(); ++k) {
+    const Dimension& d = dimension(dims[k]);
+    ids.push_back(d.id);
+    if (!chunks.empty()) chunk.push_back(std::clamp<std::size_t>(chunks[k], 1, std::max<std::size_t>(d.length, 1)));
+  }
   const nc_type t = type == NcType::f32   ? NC_FLOAT
                     : type == NcType::f64 ? NC_DOUBLE
                     : type == NcType::i32 ? NC_INT
@@ -45,8 +57,8 @@ int NetcdfWriter::add_variable(const std::string& name, NcType type, const std::
         "cannot define variable " + name);
   // Shuffle + deflate level 1: float fields compress little past it, and higher levels cost
   // far more time to write (docs/PERFORMANCE.md, design choices).
-  if (!dims.empty() && (type == NcType::f32 || type == NcType::f64 || type == NcType::i16))
-    check(nc_def_var_deflate(ncid_, var, 1, 1, 1), "cannot enable compression for " + name);
+  if (!dims.empty()) check(nc_def_var_deflate(ncid_, var, 1, 1, 1), "cannot enable compression for " + name);
+  if (!chunk.empty()) check(nc_def_var_chunking(ncid_, var, NC_CHUNKED, chunk.data()), "cannot chunk " + name);
   return var;
 }
 

@@ -26,8 +26,12 @@ class NetcdfWriter {
   NetcdfWriter& operator=(const NetcdfWriter&) = delete;
 
   int add_dimension(const std::string& name, std::size_t length);
-  /// A variable over the named dimensions (slowest first); floats are deflate-compressed.
-  int add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims);
+  /// A variable over the named dimensions (slowest first). Every variable with dimensions is
+  /// compressed (shuffle, deflate level 1).
+  /// @param chunks  the chunk's length along each dimension, each clamped to the dimension's own;
+  ///                empty for netCDF-C's default chunks
+  int add_variable(const std::string& name, NcType type, const std::vector<std::string>& dims,
+                   const std::vector<std::size_t>& chunks = {});
   void put_attribute(int var, const std::string& name, const std::string& value);
   void put_attribute(int var, const std::string& name, double value);
   void put_attribute(int var, const std::string& name, const std::vector<double>& values);
@@ -49,11 +53,16 @@ class NetcdfWriter {
 
  private:
   void check(int status, const std::string& what) const;
-  int dim_id(const std::string& name) const;
+  struct Dimension {
+    std::string name;
+    int id;
+    std::size_t length;
+  };
+  const Dimension& dimension(const std::string& name) const;
   std::filesystem::path path_;
   std::unique_ptr<AtomicFile> file_;
   int ncid_ = -1;
-  std::vector<std::pair<std::string, int>> dims_;
+  std::vector<Dimension> dims_;
 };
 
 }  // namespace nephos::io

@@ -4,11 +4,13 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <future>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
@@ -21,6 +23,9 @@ constexpr double c1 = 1.191042e-5;  // 2 h c^2 [mW m^-2 sr^-1 cm^4] (CODATA)
 constexpr double c2 = 1.4387752;    // h c / k [K cm]
 constexpr std::int16_t rad_fill = -1;
 constexpr double counts = 32766;  // Rad's packed range 0..32766
+// Rad's and DQF's chunks [pixels], as NOAA's L1b files store them: a reader (satpy's dask
+// arrays) decompresses 100 KB to read a pixel, not a band.
+constexpr std::size_t abi_chunk = 226;
 
 // Mode-6 scan time of a sector [s]: full disc 10 min, CONUS 5 min, mesoscale 1 min.
 double scan_seconds(char abbreviation) { return abbreviation == 'F' ? 600 : abbreviation == 'C' ? 300 : 60; }
@@ -84,52 +89,29 @@ std::string planck_source_text(const std::string& platform, const optics::Band& 
   return "nephos's band, flat between its nominal edges";
 }
 
-// Where the fixed grid puts a sector's pixels: which lie on the Earth, and the geodetic extent
-// of those (PUG Vol. 3's geospatial_lat_lon_extent: longitudes east, taken relative to the
-// projection origin, so that a sector across the date line keeps its west edge west).
-struct GridCover {
-  std::vector<std::uint8_t> on_earth;
-  double south = 0, north = 0, west = 0, east = 0;  // [deg]; 0 with no Earth pixel
-};
-
-GridCover grid_cover(const FixedGridView& view) {
-  const FixedGridSector& sec = view.sector;
-  GridCover g;
-  g.on_earth.resize(static_cast<std::size_t>(sec.nx) * static_cast<std::size_t>(sec.ny));
-  double south = 90, north = -90, west = 180, east = -180;  // longitudes relative to lon0
-#pragma omp parallel for schedule(static) reduction(min : south, west) reduction(max : north, east)
-  for (int j = 0; j < sec.ny; ++j)
-    for (int i = 0; i < sec.nx; ++i) {
-      double lat = 0, lon = 0;
-      const bool on = view.projection.to_geodetic(sec.x(i), sec.y(j), lat, lon);
-      g.on_earth[static_cast<std::size_t>(j) * static_cast<std::size_t>(sec.nx) + static_cast<std::size_t>(i)] = on;
-      if (!on) continue;
-      const double rel = earth::wrap_lon_180(lon - view.projection.lon0_deg);
-      south = std::min(south, lat), north = std::max(north, lat), west = std::min(west, rel),
-      east = std::max(east, rel);
-    }
-  if (north >= south)
-    g.south = south, g.north = north, g.west = earth::wrap_lon_180(west + view.projection.lon0_deg),
-    g.east = earth::wrap_lon_180(east + view.projection.lon0_deg);
-  return g;
-}
-
 // A band's Rad as ABI packs it, its quality flags, and what PUG Vol. 3's L1b files report of the
 // valid pixels (DQF 0): their count, the saturated (above Rad's range) and undersaturated (below
 // 0) among them, the Earth pixels with no value, and the minimum, maximum, mean and standard
 // deviation (of the population) of Rad as stored, counts times scale_factor, so that a reader
 // who recomputes them from the file agrees. Integer sums: the same for any thread count.
 struct PackedBand {
+  PlanckCoefficients pc;  // thermal bands' calibration
+  double scale = 1;       // Rad's scale_factor [Rad's units per count]
   std::vector<std::int16_t> rad;
   std::vector<std::int8_t> dqf;
   std::int32_t valid = 0, missing = 0, saturated = 0, undersaturated = 0;
   double min = 0, max = 0, mean = 0, std_dev = 0;  // [Rad's units]; 0 with no valid pixel
 };
 
-PackedBand pack_band(const RenderImage& img, std::size_t bi, const optics::Band& band, const PlanckCoefficients& pc,
-                     double scale, const std::vector<std::uint8_t>& on_earth) {
+PackedBand pack_band(const RenderImage& img, std::size_t bi, const std::string& platform,
+                     const std::vector<std::uint8_t>& on_earth) {
+  const optics::Band& band = optics::band(img.bands[bi]);
   const std::size_t n = on_earth.size();
   PackedBand p;
+  // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
+  // 1.5; thermal bands [mW m^-2 sr^-1 (cm^-1)^-1] up to 350 K.
+  const PlanckCoefficients pc = p.pc = abi_planck_coefficients(platform, band);
+  const double scale = p.scale = (band.thermal ? pc.radiance(350) : 1.5 * band.solar_irradiance / M_PI) / counts;
   p.rad.resize(n), p.dqf.resize(n);
   const auto ni = static_cast<std::ptrdiff_t>(n);
   std::int64_t valid = 0, missing = 0, saturated = 0, undersaturated = 0, sum = 0;
@@ -140,7 +122,8 @@ PackedBand pack_band(const RenderImage& img, std::size_t bi, const optics::Band&
   const bool find_bt = band.thermal && image_bt.empty();
   constexpr std::size_t piece = 4096;  // pixels
   const auto pieces = static_cast<std::ptrdiff_t>((n + piece - 1) / piece);
-#pragma omp parallel for schedule(static) reduction(+ : valid, missing, saturated, undersaturated, sum) \
+  // Dealt out as the threads free up: one of them may share its core with a file being written.
+#pragma omp parallel for schedule(dynamic, 8) reduction(+ : valid, missing, saturated, undersaturated, sum) \
     reduction(min : lo) reduction(max : hi)
   for (std::ptrdiff_t pc0 = 0; pc0 < pieces; ++pc0) {  // each pixel on its own: the same bits for any thread count
     const std::size_t i0 = static_cast<std::size_t>(pc0) * piece, i1 = std::min(n, i0 + piece);
@@ -169,7 +152,7 @@ PackedBand pack_band(const RenderImage& img, std::size_t bi, const optics::Band&
     const double mean_counts = static_cast<double>(sum) / static_cast<double>(valid);
     const auto centre = static_cast<std::int64_t>(std::llround(mean_counts));
     std::uint64_t dev2 = 0;  // at most 32766^2 per pixel: 2^64 holds 1.7e10 pixels
-#pragma omp parallel for schedule(static) reduction(+ : dev2)
+#pragma omp parallel for schedule(dynamic, 65536) reduction(+ : dev2)
     for (std::ptrdiff_t k = 0; k < ni; ++k) {
       const auto i = static_cast<std::size_t>(k);
       const std::int64_t d = p.dqf[i] == 0 ? p.rad[i] - centre : 0;
@@ -190,7 +173,7 @@ struct SummaryVariables {
   std::vector<std::pair<int, std::array<float, 2>>> bounds;
 };
 
-SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand& p, const GridCover& cover,
+SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand& p, const SectorCover& cover,
                              const FixedGridView& view, const std::string& units) {
   SummaryVariables out;
   auto count = [&](const std::string& name, std::int32_t value, const std::string& long_name) {
@@ -242,21 +225,16 @@ SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand
   return out;
 }
 
-void write_band(const std::filesystem::path& path, const RenderImage& img, std::size_t bi, const FixedGridView& view,
-                const UtcTime& start, double sun_distance_au, const GridCover& cover) {
-  const optics::Band& band = optics::band(img.bands[bi]);
+void write_band(const std::filesystem::path& path, const optics::Band& band, const PackedBand& packed,
+                const FixedGridView& view, const UtcTime& start, double sun_distance_au, const SectorCover& cover) {
   const FixedGridSector& sec = view.sector;
   io::NetcdfWriter nc(path);
   nc.add_dimension("y", static_cast<std::size_t>(sec.ny)), nc.add_dimension("x", static_cast<std::size_t>(sec.nx));
   nc.add_dimension("number_of_time_bounds", 2), nc.add_dimension("number_of_image_bounds", 2);
-  // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
-  // 1.5; thermal bands [mW m^-2 sr^-1 (cm^-1)^-1] up to 350 K.
-  const PlanckCoefficients pc = abi_planck_coefficients(view.platform, band);
-  const double rad_max = band.thermal ? pc.radiance(350) : 1.5 * band.solar_irradiance / M_PI;
-  const double scale = rad_max / counts;
-  const int rad = nc.add_variable("Rad", io::NcType::i16, {"y", "x"});
+  const PlanckCoefficients& pc = packed.pc;
+  const int rad = nc.add_variable("Rad", io::NcType::i16, {"y", "x"}, {abi_chunk, abi_chunk});
   nc.put_attribute_i16(rad, "_FillValue", {rad_fill});
-  nc.put_attribute(rad, "scale_factor", scale);
+  nc.put_attribute(rad, "scale_factor", packed.scale);
   nc.put_attribute(rad, "add_offset", 0.0);
   const std::string rad_units = band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1";
   nc.put_attribute(rad, "units", rad_units);
@@ -266,7 +244,7 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
   nc.put_attribute(rad, "grid_mapping", "goes_imager_projection");
   nc.put_attribute(rad, "coordinates", "band_id band_wavelength t y x");
   nc.put_attribute(rad, "ancillary_variables", "DQF");
-  const int dqf = nc.add_variable("DQF", io::NcType::i8, {"y", "x"});
+  const int dqf = nc.add_variable("DQF", io::NcType::i8, {"y", "x"}, {abi_chunk, abi_chunk});
   nc.put_attribute_i8(dqf, "_FillValue", {-1});
   nc.put_attribute(dqf, "long_name", "ABI L1b Radiances data quality flags");
   nc.put_attribute_i8(dqf, "flag_values", {0});
@@ -302,7 +280,6 @@ void write_band(const std::filesystem::path& path, const RenderImage& img, std::
          "nominal satellite subpoint longitude");
   sc.add(nc, "nominal_satellite_height", FixedGridProjection::perspective_height_m / 1e3, "km",
          "nominal satellite height above GRS 80 ellipsoid");
-  const PackedBand packed = pack_band(img, bi, band, pc, scale, cover.on_earth);
   const SummaryVariables summary = add_summary(nc, sc, packed, cover, view, rad_units);
   const int yaw = nc.add_variable("yaw_flip_flag", io::NcType::i8, {});
   nc.put_attribute(yaw, "long_name", "Flag indicating the spacecraft is operating in yaw flip configuration");
@@ -470,12 +447,25 @@ std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& di
     throw ValueError(fmt::format("a {}x{} image is not the {}x{} sector", image.width, image.height, sec.nx, sec.ny),
                      {.key = "size"});
   if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
-  const GridCover cover = grid_cover(view);  // which pixels lie on the Earth, and their extent
+  const SectorCover cover = sector_cover(view.projection, sec);  // which pixels lie on the Earth, and their extent
   std::vector<std::filesystem::path> paths;
+  for (const std::string& name : image.bands)
+    paths.push_back(dir / abi_l1b_file_name(view, optics::band(name).abi_band, start));
+  // A band's file is written (netCDF-C and HDF5, one caller at a time: its compression on one
+  // core) while the threads pack the next band; in turn with one thread.
+  const bool overlap = omp_get_max_threads() > 1;
+  std::future<void> writing;
   for (std::size_t b = 0; b < image.bands.size(); ++b) {
-    paths.push_back(dir / abi_l1b_file_name(view, optics::band(image.bands[b]).abi_band, start));
-    write_band(paths.back(), image, b, view, start, sun_distance_au, cover);
+    auto write = [&, b, packed = pack_band(image, b, view.platform, cover.on_earth)] {
+      write_band(paths[b], optics::band(image.bands[b]), packed, view, start, sun_distance_au, cover);
+    };
+    if (writing.valid()) writing.get();  // the previous file's errors, in order
+    if (overlap)
+      writing = std::async(std::launch::async, std::move(write));
+    else
+      write();
   }
+  if (writing.valid()) writing.get();
   return paths;
 }
 

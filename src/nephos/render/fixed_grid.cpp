@@ -1,5 +1,6 @@
 #include "nephos/render/fixed_grid.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -127,6 +128,54 @@ FixedGridSector fixed_grid_sector(const FixedGridProjection& p, const std::strin
     return sector("meso", 'M', resolution_km, step, x_west, y_north, x_west + 2 * half, y_north - 2 * half);
   }
   throw ValueError("scene '" + scene + "': full, conus or meso:LAT,LON", {.key = "scene"});
+}
+
+SectorCover sector_cover(const FixedGridProjection& p, const FixedGridSector& s) {
+  const auto nx = static_cast<std::size_t>(s.nx), ny = static_cast<std::size_t>(s.ny);
+  std::vector<double> sx(nx), cx(nx), sy(ny), cy(ny);  // the scan angles' sines and cosines
+  for (std::size_t i = 0; i < nx; ++i)
+    sx[i] = std::sin(s.x(static_cast<int>(i))), cx[i] = std::cos(s.x(static_cast<int>(i)));
+  for (std::size_t j = 0; j < ny; ++j)
+    sy[j] = std::sin(s.y(static_cast<int>(j))), cy[j] = std::cos(s.y(static_cast<int>(j)));
+  SectorCover c;
+  c.on_earth.resize(nx * ny);
+  const double H = p.satellite_distance_m();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t j = 0; j < static_cast<std::ptrdiff_t>(ny); ++j)
+    for (std::size_t i = 0; i < nx; ++i) {
+      double s_x, s_y, s_z;
+      const auto row = static_cast<std::size_t>(j);
+      c.on_earth[row * nx + i] = ellipsoid_hit(H, sx[i], cx[i], sy[row], cy[row], s_x, s_y, s_z);
+    }
+  // The runs' ends: the longitudes at each row's, the latitudes at each column's.
+  double south = 90, north = -90, west = 180, east = -180;  // longitudes relative to lon0
+  auto ends = [&](std::size_t n, auto on, auto take) {      // the first and last k < n with on(k)
+    std::size_t k0 = 0, k1 = n;
+    while (k0 < n && !on(k0)) ++k0;
+    if (k0 == n) return;
+    while (!on(k1 - 1)) --k1;
+    take(k0), take(k1 - 1);
+  };
+  double lat = 0, lon = 0;
+  for (std::size_t j = 0; j < ny; ++j)
+    ends(
+        nx, [&](std::size_t i) { return c.on_earth[j * nx + i] != 0; },
+        [&](std::size_t i) {
+          p.to_geodetic(s.x(static_cast<int>(i)), s.y(static_cast<int>(j)), lat, lon);
+          const double rel = earth::wrap_lon_180(lon - p.lon0_deg);
+          west = std::min(west, rel), east = std::max(east, rel);
+        });
+  for (std::size_t i = 0; i < nx; ++i)
+    ends(
+        ny, [&](std::size_t j) { return c.on_earth[j * nx + i] != 0; },
+        [&](std::size_t j) {
+          p.to_geodetic(s.x(static_cast<int>(i)), s.y(static_cast<int>(j)), lat, lon);
+          south = std::min(south, lat), north = std::max(north, lat);
+        });
+  if (north >= south)
+    c.south = south, c.north = north, c.west = earth::wrap_lon_180(west + p.lon0_deg),
+    c.east = earth::wrap_lon_180(east + p.lon0_deg);
+  return c;
 }
 
 double abi_native_resolution_km(int abi_band) {

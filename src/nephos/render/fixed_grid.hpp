@@ -4,7 +4,9 @@
 // at the projection's longitude, sweeping in x (east-west scan angle, the outer axis) and y
 // (north-south elevation angle), both in radians. Full-disc, CONUS/PACUS and mesoscale sectors
 // at ABI's 0.5, 1 and 2 km sub-satellite resolutions (14, 28 and 56 microradians).
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "nephos/earth/geometry.hpp"
 
@@ -50,6 +52,22 @@ struct FixedGridSector {
 /// coarsened by `step` (>= 1). ValueError naming "scene" or "abi_step".
 FixedGridSector fixed_grid_sector(const FixedGridProjection& p, const std::string& scene, double resolution_km,
                                   int step);
+
+/// Which pixels of a sector lie on the ellipsoid, and their geodetic extent (PUG Vol. 3's
+/// geospatial_lat_lon_extent).
+struct SectorCover {
+  std::vector<std::uint8_t> on_earth;  ///< 1 where to_geodetic() finds the pixel's centre; rows from the north
+  /// The extent [deg] of those pixels' centres, 0 with none. West and east are taken as longitudes
+  /// relative to the projection's origin, so that a sector across the date line keeps its west
+  /// edge west (GOES-West's full disc: west about 142, east about -56 [deg east]).
+  double south = 0, north = 0, west = 0, east = 0;
+};
+
+/// The cover of sector `s` of projection `p`. Along a column the latitude rises northwards and
+/// along a row the longitude eastwards, and the Earth's pixels of either are one run (the line of
+/// sight sweeps a plane or a cone, each meeting the ellipsoid in one arc), so the extremes lie at
+/// the runs' ends: to_geodetic() runs at those pixels alone.
+SectorCover sector_cover(const FixedGridProjection& p, const FixedGridSector& s);
 
 /// ABI's native resolution [km] of band 1-16: 0.5 (band 2), 1 (bands 1, 3, 5) or 2.
 double abi_native_resolution_km(int abi_band);

@@ -127,6 +127,46 @@ TEST(FixedGrid, RaysMeetTheSphereWhereTheGridSays) {
   }
 }
 
+// A sector's cover against to_geodetic() at every pixel: the same Earth pixels and, bit for bit,
+// the same extent, for the full discs of GOES-East and GOES-West (across the date line),
+// CONUS (its north-west corner beyond the limb), PACUS and mesoscale sectors inside the disc,
+// over the northern limb, the western one, and the limb at the date line. Faults caught: the extremes taken from the
+// rows' ends alone (latitudes) or from the columns' alone (longitudes), a run's last pixel one short.
+TEST(FixedGrid, ASectorsCoverIsEveryPixelsOwn) {
+  struct Case {
+    std::string spec, scene;
+    bool reaches_space;
+  };
+  const std::vector<Case> cases{{"abi:east", "full", true},          {"abi:west", "full", true},
+                                {"abi:east", "conus", true},         {"abi:west", "conus", false},
+                                {"abi:east", "meso:35,-100", false}, {"abi:east", "meso:72,-75", true},
+                                {"abi:west", "meso:0,-64", true},    {"abi:west", "meso:60,178", true}};
+  for (const auto& [spec, scene, reaches_space] : cases) {
+    const FixedGridView v = abi_view(spec, scene, 2, scene == "full" ? 8 : 2);
+    const FixedGridProjection& p = v.projection;
+    const SectorCover c = sector_cover(p, v.sector);
+    double south = 90, north = -90, west = 180, east = -180;
+    std::size_t k = 0, on = 0;
+    for (int j = 0; j < v.sector.ny; ++j)
+      for (int i = 0; i < v.sector.nx; ++i, ++k) {
+        double lat = 0, lon = 0;
+        const bool seen = p.to_geodetic(v.sector.x(i), v.sector.y(j), lat, lon);
+        ASSERT_EQ(c.on_earth[k] != 0, seen) << spec << " " << scene << " " << i << " " << j;
+        if (!seen) continue;
+        ++on;
+        const double rel = earth::wrap_lon_180(lon - p.lon0_deg);
+        south = std::min(south, lat), north = std::max(north, lat);
+        west = std::min(west, rel), east = std::max(east, rel);
+      }
+    ASSERT_GT(on, 0u) << spec << " " << scene;
+    EXPECT_EQ(on < k, reaches_space) << spec << " " << scene;
+    EXPECT_EQ(c.south, south) << spec << " " << scene;
+    EXPECT_EQ(c.north, north) << spec << " " << scene;
+    EXPECT_EQ(c.west, earth::wrap_lon_180(west + p.lon0_deg)) << spec << " " << scene;
+    EXPECT_EQ(c.east, earth::wrap_lon_180(east + p.lon0_deg)) << spec << " " << scene;
+  }
+}
+
 // Where a ray meets the surface of geodetic height h on the GRS80 ellipsoid (its semi-axes
 // grown by h: within metres of that surface for h <= 15 km), and that point's geodetic latitude
 // and longitude [rad] (Bowring's iteration, converged to 1e-12 rad).

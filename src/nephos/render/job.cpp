@@ -1,5 +1,7 @@
 #include "nephos/render/job.hpp"
 
+#include <chrono>
+
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -172,9 +174,11 @@ void run_render(
     for (const ViewRequest& v : views) {
       const RenderedView view = scene.render(v, 3.0);
       if (request.format == "abi-l1b") {
-        for (const auto& path :
-             write_abi_l1b(dir, view.image, *view.sensor.fixed_grid, view.time, view.sun.distance_au))
-          spdlog::info("wrote {}", path.string());
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto paths = write_abi_l1b(dir, view.image, *view.sensor.fixed_grid, view.time, view.sun.distance_au);
+        for (const auto& path : paths) spdlog::info("wrote {}", path.string());
+        spdlog::info("{} L1b files in {:.1f} s", paths.size(),
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       } else {
         write_render_netcdf(dir / "render.nc", view.image, scene.metadata(v, view));
         write_render_exr(dir / "render.exr", view.image);
