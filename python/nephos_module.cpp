@@ -174,7 +174,7 @@ class Scene {
   py::object render(const std::string& sensor, std::pair<int, int> size, const NameList& bands, int steps,
                     const std::optional<std::string>& time, int samples, bool sample_grid, bool atmosphere,
                     bool shadows, bool filter, const std::string& scene, int abi_step, bool brightness_temperatures,
-                    bool as_dict) const {
+                    bool cloud_fields, bool as_dict) const {
     render::ViewRequest view;
     view.sensor = sensor;
     std::tie(view.width, view.height) = size;
@@ -188,6 +188,7 @@ class Scene {
     view.scene = scene;
     view.abi_step = abi_step;
     view.brightness_temperatures = brightness_temperatures;
+    view.cloud_fields = cloud_fields;
     if (time) view.time = parse_time(*time, "time");
     require_image_size(view.width, view.height, "size");
     // The image's fields become the arrays handed to Python (no copy).
@@ -235,6 +236,7 @@ class Scene {
         field("brightness_temperature_" + img.bands[b], to_array(std::move(img.brightness_temperature[b]), shape), "K",
               what + " brightness temperature");
     }
+    if (img.cloud_fraction.empty()) return;  // radiances alone (cloud_fields=False)
     field("cloud_top_altitude", to_array(std::move(img.cloud_top_altitude_m), shape), "m",
           "nearest cloud surface above MSL");
     field("cloud_optical_depth", to_array(std::move(img.cloud_optical_depth), shape), "1",
@@ -662,14 +664,16 @@ void def_weather_and_scene(py::module_& m) {
            py::arg("bands") = std::vector<std::string>{"vis", "nir", "lwir"}, py::arg("steps") = 25,
            py::arg("time") = py::none(), py::arg("samples") = 1, py::arg("sample_grid") = false,
            py::arg("atmosphere") = true, py::arg("shadows") = true, py::arg("filter") = true, py::arg("scene") = "full",
-           py::arg("abi_step") = 1, py::arg("brightness_temperatures") = true, py::arg("as_dict") = false,
+           py::arg("abi_step") = 1, py::arg("brightness_temperatures") = true, py::arg("cloud_fields") = true,
+           py::arg("as_dict") = false,
            "Renders the scene as `nephos render` does (bands: any of the 16 ABI bands' names, nephos.bands(), or "
            "'all', as a list or one comma-separated string; atmosphere, shadows: False leaves them out; filter: False "
            "renders point samples, detail finer than a pixel unfiltered): a dict of (height, width) arrays "
            "radiance_<band> [W m-2 sr-1 um-1], brightness_temperature_<band> [K] for thermal bands (unless "
            "brightness_temperatures is False: radiances alone, as an L1b job renders), "
            "cloud_top_altitude [m], "
-           "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg]; plus "
+           "cloud_optical_depth, cloud_type (-1 none, 0..3), cloud_fraction, latitude and longitude [deg] (unless "
+           "cloud_fields is False: radiances and brightness temperatures alone); plus "
            "seconds_per_type, seconds_per_stage (the threads' time in each stage of the rows' work: rays, march, "
            "hit_shadows, hit_shading, layers, ground_shadows, ground_and_sky, brightness_temperatures; and the "
            "wall-clock time of the atmosphere's tables and the outputs' arrays), sensor and time. sensor: 'geo:LON', "

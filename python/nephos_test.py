@@ -377,12 +377,13 @@ class AbiL1b(unittest.TestCase):
             # transposed before); what is not an ABI view's Dataset is a ValueError naming it.
             t_files = nephos.write_abi_l1b(ds.transpose("x", "y"), str(Path(d) / "t"))
             self.assertTrue((netCDF4.Dataset(t_files[0])["Rad"][:] == a["Rad"][:]).all())
-            # Radiances alone (brightness_temperatures=False, as the CLI's L1b job renders):
-            # no brightness temperature in the Dataset, the same radiances, and the same files.
-            # Fault caught: the brightness temperatures found from another band's table.
+            # Radiances alone (brightness_temperatures=False, cloud_fields=False, as the CLI's L1b
+            # job renders): no brightness temperature or cloud field in the Dataset, the same
+            # radiances, and the same files. Fault caught: the brightness temperatures found from
+            # another band's table.
             alone = nephos.Scene(nephos.Weather(str(SAMPLE)), texture=32).render(
-                sensor="abi:east", abi_step=32, bands=["lwir"], brightness_temperatures=False)
-            self.assertNotIn("brightness_temperature_lwir", alone.data_vars)
+                sensor="abi:east", abi_step=32, bands=["lwir"], brightness_temperatures=False, cloud_fields=False)
+            self.assertEqual(list(alone.data_vars), ["radiance_lwir", "goes_imager_projection"])
             self.assertTrue(np.array_equal(alone["radiance_lwir"].values, ds["radiance_lwir"].values, equal_nan=True))
             r_files = nephos.write_abi_l1b(alone, str(Path(d) / "r"))
             self.assertTrue((netCDF4.Dataset(r_files[0])["Rad"][:] == a["Rad"][:]).all())

@@ -46,6 +46,7 @@ RenderParams render_params(const ViewRequest& view, std::uint64_t seed) {
   rp.shadows = view.shadows;
   rp.filter = view.filter;
   rp.brightness_temperatures = view.brightness_temperatures;
+  rp.cloud_fields = view.cloud_fields;
   rp.sample_seed = seed;
   return rp;
 }
@@ -98,7 +99,7 @@ std::vector<ViewRequest> frame_views(const RenderRequest& request) {
     for (const auto& b : bands)
       if (abi_native_resolution_km(optics::band(b).abi_band) == res) v.bands.push_back(b);
     v.abi_resolution_km = res;
-    v.brightness_temperatures = false;
+    v.brightness_temperatures = false, v.cloud_fields = false;  // what an L1b file holds: radiances
     if (!v.bands.empty()) views.push_back(std::move(v));
   }
   return views;

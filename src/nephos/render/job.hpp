@@ -48,6 +48,7 @@ struct ViewRequest {
   int abi_step = 1;              ///< abi sensors: the fixed grid coarsened by this factor
   double abi_resolution_km = 0;  ///< abi sensors: 0.5, 1 or 2; 0: the coarsest native one of the bands
   bool brightness_temperatures = true;  ///< the thermal bands' brightness temperatures too (false: radiances alone)
+  bool cloud_fields = true;  ///< the cloud fields and geolocation too (false: radiances and temperatures alone)
 
   /// The fixed grid's resolution of an abi sensor's view [km]: abi_resolution_km, or the coarsest
   /// native resolution of the bands.

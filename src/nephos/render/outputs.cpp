@@ -20,7 +20,21 @@
 
 namespace nephos::render {
 
+namespace {
+// render.nc and render.exr hold every output: an image rendered without some (an L1b job's) is refused.
+void require_every_output(const RenderImage& img, const std::filesystem::path& path) {
+  const auto npx = static_cast<std::size_t>(img.width) * static_cast<std::size_t>(img.height);
+  bool whole = img.cloud_fraction.size() == npx;
+  for (std::size_t b = 0; b < img.bands.size(); ++b)
+    whole = whole && (!optics::band(img.bands[b]).thermal || img.brightness_temperature[b].size() == npx);
+  if (!whole)
+    throw ValueError("the image lacks its cloud fields or brightness temperatures (rendered for an L1b file)",
+                     {.file = path.string()});
+}
+}  // namespace
+
 void write_render_netcdf(const std::filesystem::path& path, const RenderImage& img, const FrameMetadata& meta) {
+  require_every_output(img, path);
   io::NetcdfWriter nc(path);
   nc.add_dimension("y", static_cast<std::size_t>(img.height));
   nc.add_dimension("x", static_cast<std::size_t>(img.width));
@@ -94,6 +108,7 @@ void write_render_netcdf(const std::filesystem::path& path, const RenderImage& i
 }
 
 void write_render_exr(const std::filesystem::path& path, const RenderImage& img) {
+  require_every_output(img, path);
   AtomicFile out(path);
   try {
     Imf::Header header(img.width, img.height);

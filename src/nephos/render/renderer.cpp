@@ -1227,8 +1227,8 @@ float composite_layers(const RenderContext& c, const RowWork& rw, std::size_t x,
     const float* const lb = &rw.layer_bands[(x * ns + order[s]) * rw.lbf];
     if (!std::isfinite(L.t)) break;
     clear *= 1 - L.coverage;
-    img.cloud_fraction[px] = 1 - clear;
-    if (s == 0) {
+    if (c.params.cloud_fields) img.cloud_fraction[px] = 1 - clear;
+    if (c.params.cloud_fields && s == 0) {
       const earth::Geodetic g = earth::geodetic(c.sensor.position + static_cast<double>(L.t) * d);
       img.cloud_top_altitude_m[px] = L.altitude;
       img.cloud_type[px] = static_cast<std::int8_t>(c.scene.shells[order[s]].type());
@@ -1274,8 +1274,9 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
   for (int x = 0; x < w; ++x) {
     const std::size_t px = static_cast<std::size_t>(y) * w + x;
     const auto xo = static_cast<std::size_t>(x) * mb;
-    img.cloud_optical_depth[px] = composite_layers(c, rw, static_cast<std::size_t>(x), px, rw.dirs[x], img, &rw.rad[xo],
-                                                   &rw.trans[xo], &rw.path_above[xo], &rw.refl_above[xo]);
+    const float tau = composite_layers(c, rw, static_cast<std::size_t>(x), px, rw.dirs[x], img, &rw.rad[xo],
+                                       &rw.trans[xo], &rw.path_above[xo], &rw.refl_above[xo]);
+    if (c.params.cloud_fields) img.cloud_optical_depth[px] = tau;
     rw.seen[x] = behind_seen(&rw.trans[xo]);
     // The ground points the Sun lights and that show through the clouds in a band that sees
     // sunlight: their shadows (the other bands do not read them).
@@ -1298,7 +1299,7 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
     if (found && std::isfinite(rw.t_earth[x])) {
       const earth::Vec3 q = c.sensor.position + static_cast<double>(rw.t_earth[x]) * d;
       const earth::Geodetic g = earth::geodetic(q);
-      if (!(img.cloud_fraction[px] > 0)) {
+      if (c.params.cloud_fields && !(img.cloud_fraction[px] > 0)) {
         img.latitude_deg[px] = static_cast<float>(g.lat_deg);
         img.longitude_deg[px] = static_cast<float>(g.lon_deg);
       }
@@ -1324,13 +1325,13 @@ void composite_row(const RenderContext& c, int y, RowWork& rw, RenderImage& img)
   rw.clock.lap(Stage::brightness_temperatures);
 }
 
-// An image of w x h pixels with every output allocated, clear sky, and the thermal bands'
-// brightness temperatures where `temperatures`. Its arrays (3 GB for a 2 km ABI full disc in ten
-// bands) are allocated and first touched one a thread at a time: the page faults of fresh
-// memory, not the zeroing, set the pace (0.5-0.8 GB s^-1 a thread on the test VM, by the hour:
-// docs/PERFORMANCE.md).
+// An image of w x h pixels with its radiances allocated, the thermal bands' brightness
+// temperatures where `temperatures` and the cloud fields (clear sky) where `cloud_fields`. Its
+// arrays (3 GB for a 2 km ABI full disc in ten bands) are allocated and first touched one a
+// thread at a time: the page faults of fresh memory, not the zeroing, set the pace (0.5-0.8 GB
+// s^-1 a thread on the test VM, by the hour: docs/PERFORMANCE.md).
 RenderImage blank_image(int w, int h, const BandTables& tables, const std::vector<std::string>& bands,
-                        bool temperatures) {
+                        bool temperatures, bool cloud_fields) {
   const std::size_t npx = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   RenderImage img;
   img.width = w;
@@ -1348,7 +1349,9 @@ RenderImage blank_image(int w, int h, const BandTables& tables, const std::vecto
       img.radiance[j].assign(npx, 0.0f);
     else if (j < 2 * nb) {
       if (temperatures && tables.bands[j - nb]->thermal) img.brightness_temperature[j - nb].assign(npx, 0.0f);
-    } else if (j < 2 * nb + fields.size())
+    } else if (!cloud_fields)
+      continue;
+    else if (j < 2 * nb + fields.size())
       fields[j - 2 * nb]->assign(npx, clear[j - 2 * nb]);
     else
       img.cloud_type.assign(npx, -1);
@@ -1365,7 +1368,7 @@ RenderImage render_at(const clouds::CloudScene& scene, const Sensor& sensor, con
                       const SubPixel& sub, const EarthView& earth_view, bool temperatures, Progress& progress) {
   const RenderContext c(scene, sensor, sun, params, weather, tables, sub, earth_view);
   const auto t_outputs = std::chrono::steady_clock::now();
-  RenderImage img = blank_image(sensor.width, sensor.height, tables, params.bands, temperatures);
+  RenderImage img = blank_image(sensor.width, sensor.height, tables, params.bands, temperatures, params.cloud_fields);
   img.seconds_outputs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_outputs).count();
   const std::size_t ns = scene.shells.size();
   std::vector<double> seconds(ns, 0.0);
@@ -1474,12 +1477,14 @@ const std::vector<std::string>& render_stage_names() {
 }
 
 double render_memory_bytes(int width, int height, const RenderParams& params) {
-  double per_pixel = 4 + 4 + 1 + 4 + 8;  // cloud top, optical depth, type, fraction, latitude/longitude
+  double per_pixel = params.cloud_fields ? 4 + 4 + 1 + 4 + 8 : 0;  // cloud top, optical depth, type, fraction, lat/lon
   for (const auto& name : params.bands)
     per_pixel += optics::band(name).thermal && params.brightness_temperatures ? 8 : 4;
   if (params.samples_per_axis > 1) {
     const double nb = static_cast<double>(params.bands.size());
-    per_pixel += (8 * nb + 8 + 8 + 2 + 8) + (21 + 4 * nb);  // the sums; one sub-pixel image
+    // The sums (radiances; optical depth, cloud top, fraction, cloudy rays, types) and one sub-pixel image.
+    const double fields = params.cloud_fields ? 1 : 0;
+    per_pixel += 8 * nb + fields * (8 + 8 + 8 + 2 + 8) + 4 * nb + fields * 21;
   }
   // Each thread's row (RowWork): per pixel a layer per type, the ray, its hit and the compositing's sums.
   const double nbd = static_cast<double>(params.bands.size());
@@ -1510,9 +1515,11 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   const std::size_t npx = static_cast<std::size_t>(sensor.width) * static_cast<std::size_t>(sensor.height);
   const std::size_t nb = params.bands.size();
   std::vector<std::vector<double>> radiance(nb, std::vector<double>(npx, 0.0));
-  std::vector<double> tau(npx, 0.0), top(npx, 0.0), fraction(npx, 0.0);
-  std::vector<std::uint16_t> cloudy(npx, 0);
-  std::vector<std::array<std::uint16_t, weather::cloud_type_count>> type_count(npx);
+  const bool fields = params.cloud_fields;
+  const std::size_t nf = fields ? npx : 0;
+  std::vector<double> tau(nf, 0.0), top(nf, 0.0), fraction(nf, 0.0);
+  std::vector<std::uint16_t> cloudy(nf, 0);
+  std::vector<std::array<std::uint16_t, weather::cloud_type_count>> type_count(nf);
   RenderImage img;
   const int centre = k / 2;  // the sub-pixel nearest the centre (the centre for odd k)
   for (int j = 0; j < k; ++j)
@@ -1523,6 +1530,7 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
 #pragma omp parallel for schedule(static)
       for (std::size_t px = 0; px < npx; ++px) {
         for (std::size_t b = 0; b < nb; ++b) radiance[b][px] += sub.radiance[b][px];
+        if (!fields) continue;
         tau[px] += sub.cloud_optical_depth[px];
         fraction[px] += sub.cloud_fraction[px];
         const std::int8_t t = sub.cloud_type[px];
@@ -1557,16 +1565,16 @@ RenderImage render(const clouds::CloudScene& scene, const Sensor& sensor, const 
   img.bands = params.bands;
   img.radiance.assign(nb, std::vector<float>(npx));
   img.brightness_temperature.assign(nb, {});
-  img.cloud_top_altitude_m.assign(npx, nanf);
-  img.cloud_optical_depth.resize(npx);
-  img.cloud_type.assign(npx, -1);
-  img.cloud_fraction.resize(npx);
+  img.cloud_top_altitude_m.assign(nf, nanf);
+  img.cloud_optical_depth.resize(nf);
+  img.cloud_type.assign(nf, -1);
+  img.cloud_fraction.resize(nf);
   for (std::size_t b = 0; b < nb; ++b)
 #pragma omp parallel for schedule(static)
     for (std::size_t px = 0; px < npx; ++px) img.radiance[b][px] = static_cast<float>(radiance[b][px] * inv_n);
   if (params.brightness_temperatures) add_brightness_temperatures(img, tables);
 #pragma omp parallel for schedule(static)
-  for (std::size_t px = 0; px < npx; ++px) {
+  for (std::size_t px = 0; px < nf; ++px) {
     img.cloud_optical_depth[px] = static_cast<float>(tau[px] * inv_n);
     img.cloud_fraction[px] = static_cast<float>(fraction[px] * inv_n);
     if (cloudy[px] == 0) continue;

@@ -48,6 +48,10 @@ struct RenderParams {
   /// radiances alone, as an L1b file holds them (its readers convert with its Planck
   /// coefficients), 4 B less per pixel and band.
   bool brightness_temperatures = true;
+  /// The per-pixel cloud fields and geolocation among the outputs (RenderImage's cloud top,
+  /// optical depth, type, fraction, latitude and longitude); false: radiances (and brightness
+  /// temperatures) alone, as an L1b file holds them, 21 B less per pixel.
+  bool cloud_fields = true;
   std::vector<std::string> bands{"vis", "nir", "lwir"};
 
   /// Set `steps` (1..10000) and, from a count of rays per pixel that must be a square k^2 of
@@ -59,7 +63,8 @@ struct RenderParams {
   void set_rays_per_pixel(int rays, const std::string& key);
 };
 
-/// Per-pixel results, row-major from the top-left pixel.
+/// Per-pixel results, row-major from the top-left pixel. The brightness temperatures and the cloud
+/// fields are empty where RenderParams leaves them out.
 struct RenderImage {
   int width = 0, height = 0;
   std::vector<std::string> bands;

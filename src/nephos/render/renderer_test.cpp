@@ -15,9 +15,11 @@
 #include "nephos/core/error.hpp"
 #include "nephos/core/hash.hpp"
 #include "nephos/core/parallel.hpp"
+#include "nephos/core/test_support.hpp"
 #include "nephos/optics/optics.hpp"
 #include "nephos/render/earth_view.hpp"
 #include "nephos/render/job.hpp"
+#include "nephos/render/outputs.hpp"
 #include "nephos/render/shadows.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/sampler.hpp"
@@ -464,11 +466,13 @@ TEST(RendererOnGfs, EveryBandInOneRenderAsInRendersOfItsOwn) {
 }
 
 TEST(RendererOnGfs, RadiancesAloneAreTheSameRadiances) {
-  // An image without brightness temperatures (RenderParams::brightness_temperatures false, as an
-  // L1b job renders) holds the same radiances bit for bit, one ray or four per pixel, and
-  // brightness_temperatures() of them gives the full image's own, bit for bit; a solar band has
-  // none to give. Faults caught: the flag ignored with four rays (temperatures kept); the inverse
-  // of another band's table.
+  // An image without brightness temperatures and cloud fields (RenderParams's
+  // brightness_temperatures and cloud_fields false, as an L1b job renders) holds the same
+  // radiances bit for bit, one ray or four per pixel, and brightness_temperatures() of them gives
+  // the full image's own, bit for bit; a solar band has none to give; render.nc refuses the
+  // image. Faults caught: the flags ignored in the four-ray sums (temperatures kept; the fields
+  // summed from sub-pixel images without them: a crash); the inverse of another band's table;
+  // the fields left in the memory estimate.
   const auto& r = real();
   const Sensor s = Sensor::geostationary(-75.2, 40, 30);
   const auto sun = earth::sun_position(UtcTime::from_civil(2011, 1, 15, 15));
@@ -480,6 +484,19 @@ TEST(RendererOnGfs, RadiancesAloneAreTheSameRadiances) {
     alone.brightness_temperatures = false;
     const RenderImage with = render(r.scene, s, sun, full, &r.w), without = render(r.scene, s, sun, alone, &r.w);
     EXPECT_LT(render_memory_bytes(40, 30, alone), render_memory_bytes(40, 30, full));
+    RenderParams bare = alone;
+    bare.cloud_fields = false;
+    const RenderImage radiances = render(r.scene, s, sun, bare, &r.w);
+    EXPECT_EQ(radiances.radiance, with.radiance) << rays << " rays";
+    for (const auto* f : {&radiances.cloud_top_altitude_m, &radiances.cloud_optical_depth, &radiances.cloud_fraction,
+                          &radiances.latitude_deg, &radiances.longitude_deg})
+      EXPECT_TRUE(f->empty()) << rays << " rays";
+    EXPECT_TRUE(radiances.cloud_type.empty()) << rays << " rays";
+    // 21 B a pixel less: cloud top, optical depth, type, fraction, latitude, longitude (and with
+    // four rays their sums, 34 B, and a sub-pixel image's fields).
+    EXPECT_EQ(render_memory_bytes(40, 30, alone) - render_memory_bytes(40, 30, bare),
+              (rays == 1 ? 21.0 : 21.0 + 34.0 + 21.0) * 40 * 30);
+    EXPECT_THROW(write_render_netcdf(test_support::temp_path("alone.nc"), radiances, {}), ValueError);
     for (std::size_t b = 0; b < 3; ++b) {
       EXPECT_EQ(with.radiance[b], without.radiance[b]) << b << ", " << rays << " rays";
       EXPECT_TRUE(without.brightness_temperature[b].empty()) << b << ", " << rays << " rays";
