@@ -83,6 +83,11 @@ std::pair<Sensor, RenderParams> checked_view(const ViewRequest& view, std::uint6
   return {std::move(sensor), std::move(rp)};
 }
 
+// What the writers hold beside the image [B per pixel]: the previews' byte per pixel and channel
+// (render.nc's format), or two bands' packed Rad (int16) and DQF (int8) and the Earth mask
+// (abi-l1b: a file is written while the next band is packed).
+double writer_bytes_per_pixel(const std::string& format) { return format == "abi-l1b" ? 2 * (2 + 1) + 1 : 3; }
+
 // The views a frame of `request` renders: its view, or for ABI L1b output one per native
 // resolution of its bands (finest first), each on that resolution's grid, of radiances alone
 // (an L1b file's readers find brightness temperatures with its Planck coefficients).
@@ -157,7 +162,8 @@ void run_render(
   // writes nothing: the view (with the previews' byte per pixel and channel), the frame
   // count and advance, the scene's parameters.
   const std::vector<ViewRequest> views = frame_views(request);
-  for (const ViewRequest& v : views) checked_view(v, request.scene.seed, 3.0);
+  const double writer_bytes = writer_bytes_per_pixel(request.format);
+  for (const ViewRequest& v : views) checked_view(v, request.scene.seed, writer_bytes);
   if (request.frames < 1) throw ValueError("must be >= 1", {.key = "frames"});
   require_range(request.advance_hours, -clouds::CloudModelParams::max_displace_hours,
                 clouds::CloudModelParams::max_displace_hours, "advance_hours", "the advance per frame [h]");
@@ -173,7 +179,7 @@ void run_render(
         request.frames == 1 ? request.out : request.out / fmt::format("frame_{:03d}", frame);
     ensure_directory(dir);
     for (const ViewRequest& v : views) {
-      const RenderedView view = scene.render(v, 3.0);
+      const RenderedView view = scene.render(v, writer_bytes);
       if (request.format == "abi-l1b") {
         const auto t0 = std::chrono::steady_clock::now();
         const auto paths = write_abi_l1b(dir, view.image, *view.sensor.fixed_grid, view.time, view.sun.distance_au);
