@@ -318,8 +318,10 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
   const render::FixedGridView view =
       render::abi_view(attrs["sensor"].cast<std::string>(), attrs["scene"].cast<std::string>(),
                        attrs["resolution_km"].cast<double>(), attrs["abi_step"].cast<int>());
-  render::RenderImage img;
+  // The bands as the Dataset holds them: its own arrays, copied only where not float32 rows.
+  render::L1bBands img;
   img.width = view.sector.nx, img.height = view.sector.ny;
+  std::vector<py::array_t<float, py::array::c_style | py::array::forcecast>> held;  // alive until written
   const std::string prefix = "radiance_";
   for (const auto& name : dataset.attr("data_vars").attr("keys")()) {
     const std::string n = name.cast<std::string>();
@@ -333,12 +335,13 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
       if (!std::is_permutation(dims.begin(), dims.end(), yx.begin(), yx.end()))
         throw ValueError(fmt::format("{} has dimensions ({}), expected (y, x)", var, fmt::join(dims, ", ")),
                          {.key = "dataset"});
-      const auto a = da.attr("transpose")("y", "x")
+      held.push_back(da.attr("transpose")("y", "x")
                          .attr("values")
-                         .cast<py::array_t<float, py::array::c_style | py::array::forcecast>>();
+                         .cast<py::array_t<float, py::array::c_style | py::array::forcecast>>());
+      const auto& a = held.back();
       if (a.ndim() != 2 || a.shape(0) != img.height || a.shape(1) != img.width)
         throw ValueError(fmt::format("{} is not {}x{}", var, img.height, img.width), {.key = "dataset"});
-      return std::vector<float>(a.data(), a.data() + a.size());
+      return a.data();
     };
     img.bands.push_back(band);
     img.radiance.push_back(values(n));
@@ -346,14 +349,19 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
     // finds them from the radiances, as a render without them gives (the same values).
     const std::string bt = "brightness_temperature_" + band;
     const bool has_bt = dataset.attr("data_vars").attr("__contains__")(bt).cast<bool>();
-    img.brightness_temperature.push_back(optics::band(band).thermal && has_bt ? values(bt) : std::vector<float>{});
+    img.brightness_temperature.push_back(optics::band(band).thermal && has_bt ? values(bt) : nullptr);
   }
   if (img.bands.empty()) throw ValueError("no radiance_<band> variable", {.key = "dataset"});
-  std::filesystem::create_directories(dir);
+  const UtcTime start = UtcTime::parse(attrs["time"].cast<std::string>());
+  const double sun_distance_au = attrs["sun_distance_au"].cast<double>();
+  std::vector<std::filesystem::path> paths;
+  {
+    py::gil_scoped_release release;  // the arrays are held above
+    std::filesystem::create_directories(dir);
+    paths = render::write_abi_l1b(dir, img, view, start, sun_distance_au);
+  }
   std::vector<std::string> out;
-  for (const auto& p : render::write_abi_l1b(dir, img, view, UtcTime::parse(attrs["time"].cast<std::string>()),
-                                             attrs["sun_distance_au"].cast<double>()))
-    out.push_back(p.string());
+  for (const auto& p : paths) out.push_back(p.string());
   return out;
 }
 

@@ -387,12 +387,34 @@ class AbiL1b(unittest.TestCase):
             self.assertTrue(np.array_equal(alone["radiance_lwir"].values, ds["radiance_lwir"].values, equal_nan=True))
             r_files = nephos.write_abi_l1b(alone, str(Path(d) / "r"))
             self.assertTrue((netCDF4.Dataset(r_files[0])["Rad"][:] == a["Rad"][:]).all())
+            # The Dataset's own float32 arrays are read in place; others are converted first (a
+            # float64 copy of the same values writes the same Rad).
+            wide = alone.assign(radiance_lwir=alone["radiance_lwir"].astype("float64"))
+            w_files = nephos.write_abi_l1b(wide, str(Path(d) / "w"))
+            self.assertTrue((netCDF4.Dataset(w_files[0])["Rad"][:] == a["Rad"][:]).all())
             for bad in (5, {"radiance_lwir": 1}, ds.rename({"x": "col"})):
                 with self.assertRaisesRegex(ValueError, "'dataset'"):
                     nephos.write_abi_l1b(bad, str(Path(d) / "bad"))
         self.assertIsInstance(nephos.Scene(nephos.Weather(str(SAMPLE)), texture=8).render(
             sensor="abi:east", abi_step=64, bands=["lwir"], as_dict=True), dict)
 
+
+    def test_files_written_then_read_print_nothing(self):
+        # write_abi_l1b, then netCDF4-python reading the files in the same process (a satpy
+        # user's session): nothing on stderr. netCDF-C silences HDF5's error reports for the
+        # attributes it probes for, but HDF5 keeps that setting per thread, and netCDF-C sets it
+        # once, on the thread that first calls it. Fault caught: the files written from a thread
+        # of their own (every later read in the main thread then prints HDF5-DIAG lines).
+        code = ("import netCDF4, nephos, sys, tempfile\n"
+                "ds = nephos.Scene(nephos.Weather(sys.argv[1]), texture=8).render(sensor='abi:east', abi_step=64,"
+                " bands=['mwir', 'lwir'])\n"
+                "files = nephos.write_abi_l1b(ds, tempfile.mkdtemp())\n"
+                "print(sum(int(netCDF4.Dataset(f)['valid_pixel_count'][...]) > 0 for f in files))\n")
+        r = subprocess.run([sys.executable, "-c", code, str(SAMPLE)], capture_output=True, text=True, timeout=300,
+                           env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout.strip(), "2")
+        self.assertEqual(r.stderr.count("HDF5-DIAG"), 0, r.stderr[:400])
 
     def test_the_docs_map_example(self):
         # scripts/plot_abi_map.py, docs/render.md's example: satpy opens nephos's files and

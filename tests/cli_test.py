@@ -434,7 +434,7 @@ class AbiL1b(unittest.TestCase):
     def test_a_file_that_cannot_be_written_stops_the_job(self):
         # Band 8's file name taken by a directory: the job stops with exit 2 naming that file; the
         # file before it is whole, none after it is begun, no temporary file is left. Faults
-        # caught: the writer's error lost with its thread (exit 0), files written past it.
+        # caught: the file's error lost (exit 0), files written past it.
         d = Path(self.tmp.name) / "unwritable"
         (d / "OR_ABI-L1b-RadF-M6C08_G16_s20110151500000_e20110151510000_c20110151510000.nc").mkdir(parents=True)
         r = run("render", "--sensor", "abi:east", "--abi-step", "32", "--texture", "32", "--time",

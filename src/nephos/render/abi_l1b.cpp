@@ -103,9 +103,10 @@ struct PackedBand {
   double min = 0, max = 0, mean = 0, std_dev = 0;  // [Rad's units]; 0 with no valid pixel
 };
 
-PackedBand pack_band(const RenderImage& img, std::size_t bi, const std::string& platform,
+PackedBand pack_band(const L1bBands& img, std::size_t bi, const std::string& platform,
                      const std::vector<std::uint8_t>& on_earth) {
   const optics::Band& band = optics::band(img.bands[bi]);
+  const float* radiance = img.radiance[bi];
   const std::size_t n = on_earth.size();
   PackedBand p;
   // Rad: reflective bands nephos's radiance [W m^-2 sr^-1 um^-1] up to a reflectance factor of
@@ -118,8 +119,8 @@ PackedBand pack_band(const RenderImage& img, std::size_t bi, const std::string& 
   int lo = 32767, hi = -1;
   // A thermal band's brightness temperatures: the image's, or found a piece at a time from its
   // radiances where it holds none (an L1b job's render: brightness_temperatures()).
-  const std::vector<float>& image_bt = img.brightness_temperature[bi];
-  const bool find_bt = band.thermal && image_bt.empty();
+  const float* image_bt = img.brightness_temperature[bi];
+  const bool find_bt = band.thermal && image_bt == nullptr;
   constexpr std::size_t piece = 4096;  // pixels
   const auto pieces = static_cast<std::ptrdiff_t>((n + piece - 1) / piece);
   // Dealt out as the threads free up: one of them may share its core with a file being written.
@@ -128,10 +129,10 @@ PackedBand pack_band(const RenderImage& img, std::size_t bi, const std::string& 
   for (std::ptrdiff_t pc0 = 0; pc0 < pieces; ++pc0) {  // each pixel on its own: the same bits for any thread count
     const std::size_t i0 = static_cast<std::size_t>(pc0) * piece, i1 = std::min(n, i0 + piece);
     std::array<float, piece> found;
-    if (find_bt) brightness_temperatures(band, &img.radiance[bi][i0], i1 - i0, found.data());
-    const float* bt = find_bt ? found.data() : band.thermal ? image_bt.data() + i0 : nullptr;  // from i0
+    if (find_bt) brightness_temperatures(band, radiance + i0, i1 - i0, found.data());
+    const float* bt = find_bt ? found.data() : band.thermal ? image_bt + i0 : nullptr;  // from i0
     for (std::size_t i = i0; i < i1; ++i) {
-      const double l = !on_earth[i] ? NAN : band.thermal ? pc.radiance(bt[i - i0]) : img.radiance[bi][i];
+      const double l = !on_earth[i] ? NAN : band.thermal ? pc.radiance(bt[i - i0]) : radiance[i];
       const bool ok = std::isfinite(l);
       const double q = l / scale;
       const int c = ok ? static_cast<int>(std::clamp(std::round(q), 0.0, counts)) : rad_fill;
@@ -439,33 +440,58 @@ std::string abi_l1b_file_name(const FixedGridView& view, int abi_band, const Utc
                      abi_time(start), abi_time(end), abi_time(end));
 }
 
+L1bBands l1b_bands(const RenderImage& image) {
+  L1bBands b;
+  b.width = image.width, b.height = image.height, b.bands = image.bands;
+  for (std::size_t k = 0; k < image.bands.size(); ++k) {
+    b.radiance.push_back(image.radiance[k].data());
+    const std::vector<float>& bt = image.brightness_temperature[k];
+    b.brightness_temperature.push_back(bt.empty() ? nullptr : bt.data());
+  }
+  return b;
+}
+
 std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const RenderImage& image,
                                                  const FixedGridView& view, const UtcTime& start,
                                                  double sun_distance_au) {
+  return write_abi_l1b(dir, l1b_bands(image), view, start, sun_distance_au);
+}
+
+std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const L1bBands& image,
+                                                 const FixedGridView& view, const UtcTime& start,
+                                                 double sun_distance_au) {
   const FixedGridSector& sec = view.sector;
+  const std::size_t nb = image.bands.size();
+  if (image.radiance.size() != nb || image.brightness_temperature.size() != nb ||
+      std::count(image.radiance.begin(), image.radiance.end(), nullptr) > 0)
+    throw ValueError(
+        fmt::format("{} bands need {} radiance arrays and {} of brightness temperatures (or null)", nb, nb, nb),
+        {.key = "bands"});
   if (image.width != sec.nx || image.height != sec.ny)
     throw ValueError(fmt::format("a {}x{} image is not the {}x{} sector", image.width, image.height, sec.nx, sec.ny),
                      {.key = "size"});
   if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
+  if (nb == 0) return {};
   const SectorCover cover = sector_cover(view.projection, sec);  // which pixels lie on the Earth, and their extent
   std::vector<std::filesystem::path> paths;
   for (const std::string& name : image.bands)
     paths.push_back(dir / abi_l1b_file_name(view, optics::band(name).abi_band, start));
-  // A band's file is written (netCDF-C and HDF5, one caller at a time: its compression on one
-  // core) while the threads pack the next band; in turn with one thread.
-  const bool overlap = omp_get_max_threads() > 1;
-  std::future<void> writing;
-  for (std::size_t b = 0; b < image.bands.size(); ++b) {
-    auto write = [&, b, packed = pack_band(image, b, view.platform, cover.on_earth)] {
-      write_band(paths[b], optics::band(image.bands[b]), packed, view, start, sun_distance_au, cover);
-    };
-    if (writing.valid()) writing.get();  // the previous file's errors, in order
-    if (overlap)
-      writing = std::async(std::launch::async, std::move(write));
-    else
-      write();
+  // A band's file is written by this thread while another packs the next band with as many
+  // threads as this one's; in turn with one thread. netCDF-C and HDF5 take one caller at a time,
+  // and HDF5 keeps its error reporting per thread: netCDF-C silences it on the thread that first
+  // calls it, the caller's (written elsewhere, a later read here would print HDF5's reports).
+  const int threads = omp_get_max_threads();
+  auto pack = [&](std::size_t b) {
+    omp_set_num_threads(threads);  // a new thread starts from OpenMP's default count
+    return pack_band(image, b, view.platform, cover.on_earth);
+  };
+  PackedBand packed = pack_band(image, 0, view.platform, cover.on_earth);
+  for (std::size_t b = 0; b < nb; ++b) {
+    std::future<PackedBand> next;
+    if (threads > 1 && b + 1 < nb) next = std::async(std::launch::async, pack, b + 1);
+    write_band(paths[b], optics::band(image.bands[b]), packed, view, start, sun_distance_au, cover);
+    if (b + 1 < nb) packed = next.valid() ? next.get() : pack(b + 1);
   }
-  if (writing.valid()) writing.get();
   return paths;
 }
 

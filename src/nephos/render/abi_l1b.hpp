@@ -46,10 +46,25 @@ PlanckCoefficients abi_planck_coefficients(const std::string& platform, const op
 /// start plus the mode-6 scan time of the sector, 600 s full disc, 300 s CONUS, 60 s meso).
 std::string abi_l1b_file_name(const FixedGridView& view, int abi_band, const UtcTime& start);
 
+/// The bands write_abi_l1b() writes, not owned: per band its name, its radiances [W m^-2 sr^-1
+/// um^-1] and, for a thermal band, its brightness temperatures [K] or nullptr (then found from the
+/// radiances by brightness_temperatures()), each width x height, row-major from the north-west.
+struct L1bBands {
+  int width = 0, height = 0;
+  std::vector<std::string> bands;
+  std::vector<const float*> radiance, brightness_temperature;
+};
+/// The bands of a rendered image, pointing into it.
+L1bBands l1b_bands(const RenderImage& image);
+
 /// Writes each band of `image` (rendered by Sensor::abi(view) at time `start`, the Sun at
 /// `sun_distance_au`) as an L1b file into `dir`; returns their paths. Pixels off the ellipsoid
 /// are _FillValue. Thermal bands' Rad is the radiance their coefficients give nephos's brightness
 /// temperature (so that BT round-trips); reflective bands' Rad is nephos's radiance.
+std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const L1bBands& image,
+                                                 const FixedGridView& view, const UtcTime& start,
+                                                 double sun_distance_au);
+/// The same, of a rendered image's bands.
 std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const RenderImage& image,
                                                  const FixedGridView& view, const UtcTime& start,
                                                  double sun_distance_au);
