@@ -485,7 +485,7 @@ std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& di
     omp_set_num_threads(threads);  // a new thread starts from OpenMP's default count
     return pack_band(image, b, view.platform, cover.on_earth);
   };
-  PackedBand packed = pack_band(image, 0, view.platform, cover.on_earth);
+  PackedBand packed = pack(0);
   for (std::size_t b = 0; b < nb; ++b) {
     std::future<PackedBand> next;
     if (threads > 1 && b + 1 < nb) next = std::async(std::launch::async, pack, b + 1);
