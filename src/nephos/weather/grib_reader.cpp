@@ -388,6 +388,204 @@ struct PendingLevel {
   std::vector<float> values;
 };
 
+// The fields of one valid time.
+struct TimeSlice {
+  std::vector<PendingLevel> pending;
+  // Duplicates: (field, or a condensate part's own name; pressure in mPa).
+  std::set<std::pair<std::string, long long>> seen;
+  std::map<CloudLayer, std::vector<float>> cloud;
+  std::map<SurfaceField, std::vector<float>> surface;
+  WeatherMetadata meta;  // from its first pressure-level field
+};
+
+// The grid of one time: its levels are those with geopotential height.
+WeatherGrid build(const std::string& file, const LatLonGrid& grid, TimeSlice& slice,
+                  const std::vector<float>& orography) {
+  std::set<double, std::greater<>> gh_levels, other_levels;
+  for (const auto& p : slice.pending)
+    (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
+  if (gh_levels.empty())
+    throw FormatError(fmt::format("no geopotential height (gh) or geopotential (z) on isobaric levels at {}: "
+                                  "cannot place levels in altitude",
+                                  slice.meta.valid_time.iso()),
+                      {.file = file, .field = "gh"});
+  for (double p : other_levels)
+    if (!gh_levels.count(p))
+      spdlog::warn("{}: level {:g} hPa has no gh at {}; its fields are ignored", file, p / 100,
+                   slice.meta.valid_time.iso());
+
+  WeatherGrid w(grid, std::vector<double>(gh_levels.begin(), gh_levels.end()));
+  const auto& levels = w.pressure_levels_pa();
+  for (auto& p : slice.pending) {
+    const auto it = std::find(levels.begin(), levels.end(), p.pressure_pa);
+    if (it == levels.end()) continue;
+    const int k = static_cast<int>(it - levels.begin());
+    const bool add = p.field == Field::cloud_water && w.has(p.field, k);  // a second condensate part
+    float* dst = w.level_data(p.field, k);
+    if (add)
+      for (std::size_t i = 0; i < p.values.size(); ++i) dst[i] += p.values[i];
+    else
+      std::copy(p.values.begin(), p.values.end(), dst);
+  }
+  for (auto& [layer, v] : slice.cloud) w.cloud_cover_mut(layer) = std::move(v);
+  for (auto& [f, v] : slice.surface) w.surface_mut(f) = std::move(v);
+  w.orography_m_mut() = orography;
+  WeatherMetadata meta = slice.meta;
+  meta.source = file;
+  meta.forecast_step_h = static_cast<double>(meta.valid_time.unix_s - meta.reference_time.unix_s) / 3600.0;
+  w.metadata() = meta;
+  spdlog::debug("{}: read {} level fields on {} at {}", file, slice.pending.size(), grid.describe(),
+                meta.valid_time.iso());
+  return w;
+}
+
+// One pass over a GRIB file, a field at a time (add()), then its grids (grids()). A file may
+// hold several valid times (forecast steps or analysis hours concatenated): with `all`, one
+// grid per time that has pressure-level fields, in time order; else the time `at`, or the first
+// pressure-level field's, alone, the others counted and named once.
+class FileScan {
+ public:
+  FileScan(const std::filesystem::path& path, bool all, std::optional<UtcTime> at)
+      : file_(path.string()), all_(all), at_(at), first_(at) {}
+
+  // One field: a pressure-level field into its time's slice, cloud cover, orography or a surface
+  // field beside it; anything else is noted as held.
+  void add(codes_handle* h) {
+    const std::string sn = get_string(h, "shortName");
+    const std::string lt = get_string(h, "typeOfLevel");
+    const auto field = field_for(sn);
+    if (field && (lt == "isobaricInhPa" || lt == "isobaricInPa")) return add_level(h, sn, lt, *field);
+    held_.insert(sn + "/" + lt);
+    if (sn == "tcc") {
+      if (auto layer = cloud_layer_for(lt))
+        slices_[valid_time(h, sn, lt)].cloud[*layer] = values(h, sn, "tcc@" + lt, "tcc", cloud_cover_range);
+    } else if (const auto layer = ecmwf_cloud_layer(sn, lt)) {  // already a fraction
+      slices_[valid_time(h, sn, lt)].cloud[*layer] = values(h, sn, sn, sn, cloud_cover_range);
+    } else if (orography_field(sn, lt) && orography_.empty()) {
+      orography_ = values(h, sn, sn, sn, orography_range);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
+    } else if (const auto sf = surface_field_for(sn, lt)) {
+      const SurfaceFieldInfo& si = info(*sf);
+      slices_[valid_time(h, sn, lt)].surface[*sf] =
+          values(h, sn, sn + "@" + lt, sn, {si.valid_min, si.valid_max, si.units}, si.scale);
+    }
+  }
+
+  // After the last field: the file must have pressure-level fields (at `at`, if given); the
+  // fields of times not read are reported once; then the grids.
+  std::vector<WeatherGrid> grids() {
+    if (!any_pressure_) {
+      std::string list = fmt::format("{}", fmt::join(held_, ", "));
+      if (list.size() > 200) list = list.substr(0, 200) + "...";
+      throw FormatError(
+          fmt::format("no pressure-level fields (gh or z, t, r, w, u, v on isobaric levels); it holds only {}", list),
+          {.file = file_});
+    }
+    if (at_ && (slices_.count(*at_) == 0 || slices_[*at_].pending.empty())) {
+      std::vector<std::string> times;  // those with pressure-level fields
+      for (const auto& [t, count] : skipped_) times.push_back(t.iso());
+      throw FormatError(fmt::format("no pressure-level fields valid at {}; the file's valid times: {}", at_->iso(),
+                                    fmt::join(times, ", ")),
+                        {.file = file_});
+    }
+    report_skipped();
+    std::vector<WeatherGrid> out;
+    for (auto& [t, slice] : slices_)
+      if (!slice.pending.empty()) out.push_back(build(file_, *grid_, slice, orography_));
+    return out;
+  }
+
+ private:
+  // A pressure-level field: into its time's slice (without `all`, only the time read).
+  void add_level(codes_handle* h, const std::string& sn, const std::string& lt, Field field) {
+    const UtcTime vt = valid_time(h, sn, lt);
+    any_pressure_ = true;
+    if (!first_) first_ = vt;
+    if (!all_ && vt != *first_) {
+      ++skipped_[vt];
+      return;
+    }
+    TimeSlice& slice = slices_[vt];
+    if (slice.pending.empty()) {
+      slice.meta.reference_time =
+          time_from(get_long(h, "dataDate"), get_long(h, "dataTime"), file_, sn + "@" + lt, "the reference time");
+      slice.meta.valid_time = vt;
+      slice.meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
+      slice.meta.producer = get_string(h, "centre");
+    }
+    const long level = get_long(h, "level");
+    const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
+    const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
+    const std::string key = condensate_part(sn) ? sn : info(field).grib_short_name;
+    if (!slice.seen.insert({key, std::llround(p * 1000)}).second) {
+      spdlog::warn("{}: duplicate message for {} at {}; keeping the first", file_, name, vt.iso());
+      return;
+    }
+    const FieldInfo& fi = info(field);
+    slice.pending.push_back({field, p, values(h, sn, name, name, {fi.valid_min, fi.valid_max, fi.units})});
+  }
+
+  UtcTime valid_time(codes_handle* h, const std::string& sn, const std::string& lt) const {
+    return validity_time(h, file_, sn + "@" + lt);
+  }
+
+  // The field's values on the file's one grid, in nephos's unit (scale_for, then `scale`),
+  // checked against the range they can take.
+  std::vector<float> values(codes_handle* h, const std::string& sn, const std::string& name,
+                            const std::string& grid_field, const ValidRange& range, float scale = 1.0f) {
+    Decoded d = decode_regular_ll(h, file_, name, geometry_cache_);
+    check_grid(d.grid, grid_field);
+    if (const float s = scale_for(sn) * scale; s != 1.0f)
+      for (float& v : d.values) v *= s;
+    check_range(d, range, file_, name);
+    return std::move(d.values);
+  }
+
+  void check_grid(const LatLonGrid& g, const std::string& field) {
+    if (!grid_) {
+      grid_ = g;
+    } else if (!(std::abs(grid_->lat0_deg - g.lat0_deg) < 1e-6 && std::abs(grid_->dlat_deg - g.dlat_deg) < 1e-6 &&
+                 std::abs(grid_->lon0_deg - g.lon0_deg) < 1e-6 && std::abs(grid_->dlon_deg - g.dlon_deg) < 1e-6 &&
+                 grid_->nlat == g.nlat && grid_->nlon == g.nlon)) {
+      throw FormatError(fmt::format("grid {} differs from the first field's grid {}; all fields must share one grid",
+                                    g.describe(), grid_->describe()),
+                        {.file = file_, .field = field});
+    }
+  }
+
+  // The fields of the times not read, once. Cloud cover at a time without pressure-level fields
+  // (or, without `all`, at another time) has nothing to go with.
+  void report_skipped() {
+    for (auto& [t, slice] : slices_)
+      if (slice.pending.empty() && t != *first_)
+        skipped_[t] += static_cast<int>(slice.cloud.size() + slice.surface.size());
+    if (skipped_.empty()) return;
+    int n = 0;
+    std::vector<std::string> times;
+    for (const auto& [t, count] : skipped_) n += count, times.push_back(t.iso());
+    if (all_)
+      spdlog::warn("{}: {} single-level fields at {}, where the file has no pressure-level fields, are not read", file_,
+                   n, fmt::join(times, ", "));
+    else
+      spdlog::log(at_ ? spdlog::level::info : spdlog::level::warn,
+                  "{}: fields for {} valid times; reading those of {} ({}) and skipping {} at {} (the commands "
+                  "that read weather take --weather-time to choose)",
+                  file_, skipped_.size() + 1, first_->iso(), at_ ? "as asked" : "the first pressure-level field's", n,
+                  fmt::join(times, ", "));
+  }
+
+  std::string file_;
+  bool all_;
+  std::optional<UtcTime> at_;
+  std::optional<LatLonGrid> grid_;
+  std::map<UtcTime, TimeSlice> slices_;
+  std::optional<UtcTime> first_;    // the time read (without `all`): `at` or the first seen
+  bool any_pressure_ = false;       // any pressure-level field at any time
+  std::map<UtcTime, int> skipped_;  // without `all`: fields at other valid times
+  std::vector<float> orography_;    // time-invariant: the first
+  std::map<std::string, Geometry> geometry_cache_;
+  std::set<std::string> held_;  // what the file has besides pressure-level fields
+};
+
 class GribReader final : public WeatherReader {
  public:
   std::string name() const override { return "grib"; }
@@ -416,179 +614,11 @@ class GribReader final : public WeatherReader {
   }
 
  private:
-  // The fields of one valid time.
-  struct TimeSlice {
-    std::vector<PendingLevel> pending;
-    // Duplicates: (field, or a condensate part's own name; pressure in mPa).
-    std::set<std::pair<std::string, long long>> seen;
-    std::map<CloudLayer, std::vector<float>> cloud;
-    std::map<SurfaceField, std::vector<float>> surface;
-    WeatherMetadata meta;  // from its first pressure-level field
-  };
-
-  // One pass over the file. A file may hold several valid times (forecast steps or analysis
-  // hours concatenated): with `all`, one grid per time that has pressure-level fields, in time
-  // order; else the time `at`, or the first pressure-level field's, alone, the others counted
-  // and named once.
   std::vector<WeatherGrid> read_times(const std::filesystem::path& path, bool all,
                                       std::optional<UtcTime> at = std::nullopt) const {
-    const std::string file = path.string();
-    std::optional<LatLonGrid> grid;
-    std::map<UtcTime, TimeSlice> slices;
-    std::optional<UtcTime> first = at;  // the time read (without `all`): `at` or the first seen
-    bool any_pressure = false;          // any pressure-level field at any time
-    std::map<UtcTime, int> skipped;     // without `all`: fields at other valid times
-    std::vector<float> orography;       // time-invariant: the first
-    std::map<std::string, Geometry> geometry_cache;
-    std::set<std::string> held;  // what the file has besides pressure-level fields
-
-    auto check_grid = [&](const LatLonGrid& g, const std::string& field) {
-      if (!grid) {
-        grid = g;
-      } else if (!(std::abs(grid->lat0_deg - g.lat0_deg) < 1e-6 && std::abs(grid->dlat_deg - g.dlat_deg) < 1e-6 &&
-                   std::abs(grid->lon0_deg - g.lon0_deg) < 1e-6 && std::abs(grid->dlon_deg - g.dlon_deg) < 1e-6 &&
-                   grid->nlat == g.nlat && grid->nlon == g.nlon)) {
-        throw FormatError(fmt::format("grid {} differs from the first field's grid {}; all fields must share one grid",
-                                      g.describe(), grid->describe()),
-                          {.file = file, .field = field});
-      }
-    };
-
-    for_each_field(path, [&](codes_handle* h, int) {
-      const std::string sn = get_string(h, "shortName");
-      const std::string lt = get_string(h, "typeOfLevel");
-      const long level = get_long(h, "level");
-      const auto field = field_for(sn);
-      const bool on_pressure_level = field && (lt == "isobaricInhPa" || lt == "isobaricInPa");
-      if (!on_pressure_level) held.insert(sn + "/" + lt);
-      auto valid_time = [&] { return validity_time(h, file, sn + "@" + lt); };
-      // The field's values on the file's one grid, in nephos's unit (scale_for, then `scale`),
-      // checked against the range they can take.
-      auto values = [&](const std::string& name, const std::string& grid_field, const ValidRange& range,
-                        float scale = 1.0f) {
-        Decoded d = decode_regular_ll(h, file, name, geometry_cache);
-        check_grid(d.grid, grid_field);
-        if (const float s = scale_for(sn) * scale; s != 1.0f)
-          for (float& v : d.values) v *= s;
-        check_range(d, range, file, name);
-        return std::move(d.values);
-      };
-      if (on_pressure_level) {
-        const UtcTime vt = valid_time();
-        any_pressure = true;
-        if (!first) first = vt;
-        if (!all && vt != *first) {
-          ++skipped[vt];
-          return;
-        }
-        TimeSlice& slice = slices[vt];
-        if (slice.pending.empty()) {
-          slice.meta.reference_time =
-              time_from(get_long(h, "dataDate"), get_long(h, "dataTime"), file, sn + "@" + lt, "the reference time");
-          slice.meta.valid_time = vt;
-          slice.meta.grib_edition = static_cast<int>(get_long(h, "editionNumber"));
-          slice.meta.producer = get_string(h, "centre");
-        }
-        const double p = lt == "isobaricInhPa" ? static_cast<double>(level) * 100.0 : static_cast<double>(level);
-        const std::string name = fmt::format("{}@{:g}hPa", sn, p / 100);
-        const std::string key = condensate_part(sn) ? sn : info(*field).grib_short_name;
-        if (!slice.seen.insert({key, std::llround(p * 1000)}).second) {
-          spdlog::warn("{}: duplicate message for {} at {}; keeping the first", file, name, vt.iso());
-          return;
-        }
-        const FieldInfo& fi = info(*field);
-        slice.pending.push_back({*field, p, values(name, name, {fi.valid_min, fi.valid_max, fi.units})});
-      } else if (sn == "tcc") {
-        if (auto layer = cloud_layer_for(lt))
-          slices[valid_time()].cloud[*layer] = values("tcc@" + lt, "tcc", cloud_cover_range);
-      } else if (const auto layer = ecmwf_cloud_layer(sn, lt)) {  // already a fraction
-        slices[valid_time()].cloud[*layer] = values(sn, sn, cloud_cover_range);
-      } else if (orography_field(sn, lt) && orography.empty()) {
-        orography = values(sn, sn, orography_range);  // ECMWF's surface geopotential z [m2 s-2] scaled to m
-      } else if (const auto sf = surface_field_for(sn, lt)) {
-        const SurfaceFieldInfo& si = info(*sf);
-        slices[valid_time()].surface[*sf] = values(sn + "@" + lt, sn, {si.valid_min, si.valid_max, si.units}, si.scale);
-      }
-    });
-
-    if (!any_pressure) {
-      std::string list = fmt::format("{}", fmt::join(held, ", "));
-      if (list.size() > 200) list = list.substr(0, 200) + "...";
-      throw FormatError(
-          fmt::format("no pressure-level fields (gh or z, t, r, w, u, v on isobaric levels); it holds only {}", list),
-          {.file = file});
-    }
-    if (at && (slices.count(*at) == 0 || slices[*at].pending.empty())) {
-      std::vector<std::string> times;  // those with pressure-level fields
-      for (const auto& [t, count] : skipped) times.push_back(t.iso());
-      throw FormatError(fmt::format("no pressure-level fields valid at {}; the file's valid times: {}", at->iso(),
-                                    fmt::join(times, ", ")),
-                        {.file = file});
-    }
-    // Cloud cover at a time without pressure-level fields (or, without `all`, at another time)
-    // has nothing to go with.
-    for (auto& [t, slice] : slices)
-      if (slice.pending.empty() && t != *first)
-        skipped[t] += static_cast<int>(slice.cloud.size() + slice.surface.size());
-    if (!skipped.empty()) {
-      int n = 0;
-      std::vector<std::string> times;
-      for (const auto& [t, count] : skipped) n += count, times.push_back(t.iso());
-      if (all)
-        spdlog::warn("{}: {} single-level fields at {}, where the file has no pressure-level fields, are not read",
-                     file, n, fmt::join(times, ", "));
-      else
-        spdlog::log(at ? spdlog::level::info : spdlog::level::warn,
-                    "{}: fields for {} valid times; reading those of {} ({}) and skipping {} at {} (the commands "
-                    "that read weather take --weather-time to choose)",
-                    file, skipped.size() + 1, first->iso(), at ? "as asked" : "the first pressure-level field's", n,
-                    fmt::join(times, ", "));
-    }
-    std::vector<WeatherGrid> out;
-    for (auto& [t, slice] : slices)
-      if (!slice.pending.empty()) out.push_back(build(file, *grid, slice, orography));
-    return out;
-  }
-
-  // The grid of one time: its levels are those with geopotential height.
-  static WeatherGrid build(const std::string& file, const LatLonGrid& grid, TimeSlice& slice,
-                           const std::vector<float>& orography) {
-    std::set<double, std::greater<>> gh_levels, other_levels;
-    for (const auto& p : slice.pending)
-      (p.field == Field::geopotential_height ? gh_levels : other_levels).insert(p.pressure_pa);
-    if (gh_levels.empty())
-      throw FormatError(fmt::format("no geopotential height (gh) or geopotential (z) on isobaric levels at {}: "
-                                    "cannot place levels in altitude",
-                                    slice.meta.valid_time.iso()),
-                        {.file = file, .field = "gh"});
-    for (double p : other_levels)
-      if (!gh_levels.count(p))
-        spdlog::warn("{}: level {:g} hPa has no gh at {}; its fields are ignored", file, p / 100,
-                     slice.meta.valid_time.iso());
-
-    WeatherGrid w(grid, std::vector<double>(gh_levels.begin(), gh_levels.end()));
-    const auto& levels = w.pressure_levels_pa();
-    for (auto& p : slice.pending) {
-      const auto it = std::find(levels.begin(), levels.end(), p.pressure_pa);
-      if (it == levels.end()) continue;
-      const int k = static_cast<int>(it - levels.begin());
-      const bool add = p.field == Field::cloud_water && w.has(p.field, k);  // a second condensate part
-      float* dst = w.level_data(p.field, k);
-      if (add)
-        for (std::size_t i = 0; i < p.values.size(); ++i) dst[i] += p.values[i];
-      else
-        std::copy(p.values.begin(), p.values.end(), dst);
-    }
-    for (auto& [layer, v] : slice.cloud) w.cloud_cover_mut(layer) = std::move(v);
-    for (auto& [f, v] : slice.surface) w.surface_mut(f) = std::move(v);
-    w.orography_m_mut() = orography;
-    WeatherMetadata meta = slice.meta;
-    meta.source = file;
-    meta.forecast_step_h = static_cast<double>(meta.valid_time.unix_s - meta.reference_time.unix_s) / 3600.0;
-    w.metadata() = meta;
-    spdlog::debug("{}: read {} level fields on {} at {}", file, slice.pending.size(), grid.describe(),
-                  meta.valid_time.iso());
-    return w;
+    FileScan scan(path, all, at);
+    for_each_field(path, [&](codes_handle* h, int) { scan.add(h); });
+    return scan.grids();
   }
 };
 
