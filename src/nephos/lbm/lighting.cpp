@@ -262,6 +262,83 @@ void LightingSolver::set_balance(const PhotonBalance& b) {
   residual_ = b.inflow > 0 ? std::abs(b.inflow - b.outflow - b.absorbed) / b.inflow : 0.0;
 }
 
+// One row's scratch: its post-collision direction rows, their sum, the phase matrix's
+// scattering into one direction, and a row shifted by c_x.
+struct LightingSolver::RowScratch {
+  explicit RowScratch(std::size_t nx) : post(light_dirs * nx), sum(nx), scat(nx), shifted(nx) {}
+  std::vector<float> post, sum, scat, shifted;
+};
+
+double LightingSolver::collide_row(std::size_t base, RowScratch& w) const {
+  const int nx = g_.nx;
+  const auto nxu = static_cast<std::size_t>(nx);
+  const std::size_t stride = g_.direction_stride();
+  const float* ss = sigma_s_.data() + base;
+  const float* sa = sigma_a_.data() + base;
+  auto in = [&](int k) { return i_.data() + static_cast<std::size_t>(k) * stride + base; };
+  float* sum = w.sum.data();
+  for (int x = 0; x < nx; ++x) sum[x] = 0;
+  for (int k = 0; k < light_dirs; ++k) {
+    const float* ik = in(k);
+    for (int x = 0; x < nx; ++x) sum[x] += ik[x];
+  }
+  double absorbed = 0;
+  for (int x = 0; x < nx; ++x) absorbed += static_cast<double>(sa[x]) * sum[x];
+  for (int k = 0; k < light_dirs; ++k) {
+    const float* ik = in(k);
+    float* out = w.post.data() + static_cast<std::size_t>(k) * nxu;
+    if (isotropic_) {
+      const float wk = k < 6 ? 1.0f / 12.0f : 1.0f / 24.0f;
+      for (int x = 0; x < nx; ++x) out[x] = (1 - ss[x] - sa[x]) * ik[x] + ss[x] * wk * sum[x];
+    } else {
+      float* scat = w.scat.data();
+      for (int x = 0; x < nx; ++x) scat[x] = 0;
+      for (int j = 0; j < light_dirs; ++j) {
+        const float pkj = static_cast<float>(phase_[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]);
+        const float* ij = in(j);
+        for (int x = 0; x < nx; ++x) scat[x] += pkj * ij[x];
+      }
+      for (int x = 0; x < nx; ++x) out[x] = (1 - ss[x] - sa[x]) * ik[x] + ss[x] * scat[x];
+    }
+  }
+  return absorbed;
+}
+
+void LightingSolver::push_row(int y, int yg, int z, const std::array<float, light_dirs>& inject, RowScratch& w,
+                              double& inflow, double& outflow) {
+  const int nx = g_.nx, ny = g_.ny, nz = g_.nz, global_ny = global_.ny;
+  const auto nxu = static_cast<std::size_t>(nx);
+  const bool periodic = p_.periodic, slab = is_slab();
+  for (int k = 0; k < light_dirs; ++k) {
+    const auto ku = static_cast<std::size_t>(k + 1);
+    const int cx = d3q19::cx[ku];
+    const int dyg = yg + d3q19::cy[ku];
+    int dz = z + d3q19::cz[ku];
+    const float* pk = w.post.data() + static_cast<std::size_t>(k) * nxu;
+    if (!periodic && (dyg < 0 || dyg >= global_ny || dz < 0 || dz >= nz)) {  // the whole row leaves
+      for (int x = 0; x < nx; ++x) outflow += pk[x];
+      continue;
+    }
+    const int dy = slab ? y + d3q19::cy[ku] : (y + d3q19::cy[ku] + ny) % ny;  // a slab: maybe a halo row
+    dz = (dz + nz) % nz;
+    const float inj = inject[static_cast<std::size_t>(k)];
+    const float* row = pk;
+    float* shifted = w.shifted.data();
+    if (cx == 1) {
+      for (int x = 1; x < nx; ++x) shifted[x] = pk[x - 1];
+      shifted[0] = periodic ? pk[nx - 1] : inj;
+      if (!periodic) outflow += pk[nx - 1], inflow += inj;
+      row = shifted;
+    } else if (cx == -1) {
+      for (int x = 0; x < nx - 1; ++x) shifted[x] = pk[x + 1];
+      shifted[nx - 1] = periodic ? pk[0] : inj;
+      if (!periodic) outflow += pk[0], inflow += inj;
+      row = shifted;
+    }
+    store_streaming(next_.data() + static_cast<std::size_t>(k) * g_.direction_stride() + g_.index(0, dy, dz), row, nxu);
+  }
+}
+
 double LightingSolver::step() {
   // One fused pass per row of cells: collide the row's photons (18 direction rows, read once),
   // then push each direction's post-collision row to its destination row (y + c_y, z + c_z),
@@ -273,8 +350,8 @@ double LightingSolver::step() {
   // the sunlight injected along that direction. A slab pushes the photons that leave it in y
   // into its halo rows, for the exchange; only the whole grid's faces are open.
   const std::size_t stride = g_.direction_stride();
-  const int nx = g_.nx, ny = g_.ny, nz = g_.nz, own = g_.ny - 2 * halo_, global_ny = global_.ny;
-  const bool periodic = p_.periodic, slab = is_slab();
+  const int nx = g_.nx, nz = g_.nz, own = g_.ny - 2 * halo_, global_ny = global_.ny;
+  const bool periodic = p_.periodic;
   std::array<float, light_dirs> inject{};
   if (!periodic)
     for (const auto& [k, w] : sun_) inject[static_cast<std::size_t>(k)] = static_cast<float>(w);
@@ -288,68 +365,14 @@ double LightingSolver::step() {
   };
 #pragma omp parallel
   {
-    const auto nxu = static_cast<std::size_t>(nx);
-    std::vector<float> post(light_dirs * nxu), sum(nxu), scat(nxu), shifted(nxu);
+    RowScratch w(static_cast<std::size_t>(nx));
 #pragma omp for collapse(2) schedule(static)
     for (int z = 0; z < nz; ++z)
       for (int yo = 0; yo < own; ++yo) {
         const int y = halo_ + yo, yg = y_begin_ + yo;  // local and global row
-        const std::size_t base = g_.index(0, y, z);
-        double absorbed = 0, inflow = 0, outflow = 0;
-        const float* ss = sigma_s_.data() + base;
-        const float* sa = sigma_a_.data() + base;
-        auto in = [&](int k) { return i_.data() + static_cast<std::size_t>(k) * stride + base; };
-        // Collision.
-        for (int x = 0; x < nx; ++x) sum[x] = 0;
-        for (int k = 0; k < light_dirs; ++k) {
-          const float* ik = in(k);
-          for (int x = 0; x < nx; ++x) sum[x] += ik[x];
-        }
-        for (int x = 0; x < nx; ++x) absorbed += static_cast<double>(sa[x]) * sum[x];
-        for (int k = 0; k < light_dirs; ++k) {
-          const float* ik = in(k);
-          float* out = post.data() + static_cast<std::size_t>(k) * nxu;
-          if (isotropic_) {
-            const float w = k < 6 ? 1.0f / 12.0f : 1.0f / 24.0f;
-            for (int x = 0; x < nx; ++x) out[x] = (1 - ss[x] - sa[x]) * ik[x] + ss[x] * w * sum[x];
-          } else {
-            for (int x = 0; x < nx; ++x) scat[x] = 0;
-            for (int j = 0; j < light_dirs; ++j) {
-              const float pkj = static_cast<float>(phase_[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)]);
-              const float* ij = in(j);
-              for (int x = 0; x < nx; ++x) scat[x] += pkj * ij[x];
-            }
-            for (int x = 0; x < nx; ++x) out[x] = (1 - ss[x] - sa[x]) * ik[x] + ss[x] * scat[x];
-          }
-        }
-        // Push.
-        for (int k = 0; k < light_dirs; ++k) {
-          const auto ku = static_cast<std::size_t>(k + 1);
-          const int cx = d3q19::cx[ku];
-          const int dyg = yg + d3q19::cy[ku];
-          int dz = z + d3q19::cz[ku];
-          const float* pk = post.data() + static_cast<std::size_t>(k) * nxu;
-          if (!periodic && (dyg < 0 || dyg >= global_ny || dz < 0 || dz >= nz)) {  // the whole row leaves
-            for (int x = 0; x < nx; ++x) outflow += pk[x];
-            continue;
-          }
-          const int dy = slab ? y + d3q19::cy[ku] : (y + d3q19::cy[ku] + ny) % ny;  // a slab: maybe a halo row
-          dz = (dz + nz) % nz;
-          const float inj = inject[static_cast<std::size_t>(k)];
-          const float* row = pk;
-          if (cx == 1) {
-            for (int x = 1; x < nx; ++x) shifted[x] = pk[x - 1];
-            shifted[0] = periodic ? pk[nx - 1] : inj;
-            if (!periodic) outflow += pk[nx - 1], inflow += inj;
-            row = shifted.data();
-          } else if (cx == -1) {
-            for (int x = 0; x < nx - 1; ++x) shifted[x] = pk[x + 1];
-            shifted[nx - 1] = periodic ? pk[0] : inj;
-            if (!periodic) outflow += pk[0], inflow += inj;
-            row = shifted.data();
-          }
-          store_streaming(next_.data() + static_cast<std::size_t>(k) * stride + g_.index(0, dy, dz), row, nxu);
-        }
+        double inflow = 0, outflow = 0;
+        const double absorbed = collide_row(g_.index(0, y, z), w);
+        push_row(y, yg, z, inject, w, inflow, outflow);
         auto& rb = balance_at(yo, z);
         rb[0] += absorbed, rb[1] += inflow, rb[2] += outflow;
       }

@@ -107,6 +107,15 @@ class LightingSolver {
  private:
   LightingSolver(Grid3 grid, std::vector<float> density, LightingParams params, int y_begin, int y_end, int halo);
   std::size_t local_cell(std::size_t global_cell) const;
+  struct RowScratch;
+  /// Row `base`'s photons (nx cells from cell `base`) after the collision, a direction row each,
+  /// into w.post; returns the photons the row absorbed.
+  double collide_row(std::size_t base, RowScratch& w) const;
+  /// Row (y, z)'s post-collision rows (global row yg) pushed to their destination rows
+  /// (y + c_y, z + c_z), shifted by c_x: photons leaving the grid add to `outflow`, the
+  /// sunlight `inject` entering at a row's x edge to `inflow`.
+  void push_row(int y, int yg, int z, const std::array<float, light_dirs>& inject, RowScratch& w, double& inflow,
+                double& outflow);
   Grid3 global_, g_;  // the whole grid; the stored grid (a slab: its rows and halo rows)
   int y_begin_ = 0, halo_ = 0;
   LightingParams p_;
