@@ -226,18 +226,12 @@ SummaryVariables add_summary(io::NetcdfWriter& nc, Scalars& sc, const PackedBand
   return out;
 }
 
-void write_band(const std::filesystem::path& path, const optics::Band& band, const PackedBand& packed,
-                const FixedGridView& view, const UtcTime& start, double sun_distance_au, const SectorCover& cover) {
-  const FixedGridSector& sec = view.sector;
-  io::NetcdfWriter nc(path);
-  nc.add_dimension("y", static_cast<std::size_t>(sec.ny)), nc.add_dimension("x", static_cast<std::size_t>(sec.nx));
-  nc.add_dimension("number_of_time_bounds", 2), nc.add_dimension("number_of_image_bounds", 2);
-  const PlanckCoefficients& pc = packed.pc;
+// Rad (16-bit counts scaled to radiance, in NOAA's chunks) and DQF; returns their ids.
+std::pair<int, int> define_radiances(io::NetcdfWriter& nc, const PackedBand& packed, const std::string& rad_units) {
   const int rad = nc.add_variable("Rad", io::NcType::i16, {"y", "x"}, {abi_chunk, abi_chunk});
   nc.put_attribute_i16(rad, "_FillValue", {rad_fill});
   nc.put_attribute(rad, "scale_factor", packed.scale);
   nc.put_attribute(rad, "add_offset", 0.0);
-  const std::string rad_units = band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1";
   nc.put_attribute(rad, "units", rad_units);
   nc.put_attribute(rad, "long_name", "ABI L1b Radiances (simulated by nephos)");
   nc.put_attribute(rad, "standard_name", "toa_outgoing_radiance_per_unit_wavenumber");
@@ -250,8 +244,11 @@ void write_band(const std::filesystem::path& path, const optics::Band& band, con
   nc.put_attribute(dqf, "long_name", "ABI L1b Radiances data quality flags");
   nc.put_attribute_i8(dqf, "flag_values", {0});
   nc.put_attribute(dqf, "flag_meanings", "good_pixel_qf");
-  const int xv = coordinate(nc, "x", sec.x0_rad, sec.dx_rad, "X"),
-            yv = coordinate(nc, "y", sec.y0_rad, sec.dy_rad, "Y");
+  return {rad, dqf};
+}
+
+// goes_imager_projection: the fixed grid as a CF grid mapping (GRS80, PUG Vol. 3 5.1.2.8).
+int define_projection(io::NetcdfWriter& nc, const FixedGridView& view) {
   const int proj = nc.add_variable("goes_imager_projection", io::NcType::i32, {});
   nc.put_attribute(proj, "long_name", "GOES-R ABI fixed grid projection");
   nc.put_attribute(proj, "grid_mapping_name", "geostationary");
@@ -262,9 +259,13 @@ void write_band(const std::filesystem::path& path, const optics::Band& band, con
   nc.put_attribute(proj, "latitude_of_projection_origin", 0.0);
   nc.put_attribute(proj, "longitude_of_projection_origin", view.projection.lon0_deg);
   nc.put_attribute(proj, "sweep_angle_axis", "x");
-  const int band_id = nc.add_variable("band_id", io::NcType::i8, {});
-  nc.put_attribute(band_id, "long_name", "ABI band number");
-  Scalars sc;
+  return proj;
+}
+
+// The band's calibration and the platform's place: wavelength, Planck coefficients (thermal
+// bands), esun and kappa0, the Sun's distance, the nominal sub-satellite point and height.
+void add_band_scalars(io::NetcdfWriter& nc, Scalars& sc, const optics::Band& band, const PlanckCoefficients& pc,
+                      const FixedGridView& view, double sun_distance_au) {
   sc.add(nc, "band_wavelength", band.centre_um, "um", "ABI band central wavelength");
   if (band.thermal) {
     sc.add(nc, "planck_fk1", pc.fk1, "W m-1", "wavenumber-dependent coefficient (2 h c^2 nu^3) of the band");
@@ -281,17 +282,12 @@ void write_band(const std::filesystem::path& path, const optics::Band& band, con
          "nominal satellite subpoint longitude");
   sc.add(nc, "nominal_satellite_height", FixedGridProjection::perspective_height_m / 1e3, "km",
          "nominal satellite height above GRS 80 ellipsoid");
-  const SummaryVariables summary = add_summary(nc, sc, packed, cover, view, rad_units);
-  const int yaw = nc.add_variable("yaw_flip_flag", io::NcType::i8, {});
-  nc.put_attribute(yaw, "long_name", "Flag indicating the spacecraft is operating in yaw flip configuration");
-  // Time: seconds since 2000-01-01 12:00:00 (J2000), the scan's middle and its bounds.
-  const double t0 = start.days_since_j2000() * 86400, scan = scan_seconds(sec.abbreviation);
-  sc.add(nc, "t", t0 + 0.5 * scan, "seconds since 2000-01-01 12:00:00",
-         "J2000 epoch mid-point between the start and end image scan in seconds", true);
-  const int tb = nc.add_variable("time_bounds", io::NcType::f64, {"number_of_time_bounds"});
-  nc.put_attribute(tb, "long_name", "Scan start and end times in seconds since epoch (2000-01-01 12:00:00)");
-  // Global attributes.
-  const UtcTime end = start.plus_seconds(scan);
+}
+
+// The file's global attributes: what it is, whose, which scene and when.
+void put_global_attributes(io::NetcdfWriter& nc, const std::filesystem::path& path, const optics::Band& band,
+                           const FixedGridView& view, const UtcTime& start, const UtcTime& end) {
+  const FixedGridSector& sec = view.sector;
   const int g = io::NetcdfWriter::global;
   nc.put_attribute(g, "title", "ABI L1b Radiances");
   nc.put_attribute(g, "summary",
@@ -312,6 +308,33 @@ void write_band(const std::filesystem::path& path, const optics::Band& band, con
   nc.put_attribute(g, "spatial_resolution", fmt::format("{:g}km at nadir", sec.resolution_km * sec.step));
   nc.put_attribute(g, "time_coverage_start", abi_iso(start));
   nc.put_attribute(g, "time_coverage_end", abi_iso(end));
+}
+
+void write_band(const std::filesystem::path& path, const optics::Band& band, const PackedBand& packed,
+                const FixedGridView& view, const UtcTime& start, double sun_distance_au, const SectorCover& cover) {
+  const FixedGridSector& sec = view.sector;
+  io::NetcdfWriter nc(path);
+  nc.add_dimension("y", static_cast<std::size_t>(sec.ny)), nc.add_dimension("x", static_cast<std::size_t>(sec.nx));
+  nc.add_dimension("number_of_time_bounds", 2), nc.add_dimension("number_of_image_bounds", 2);
+  const std::string rad_units = band.thermal ? "mW m-2 sr-1 (cm-1)-1" : "W m-2 sr-1 um-1";
+  const auto [rad, dqf] = define_radiances(nc, packed, rad_units);
+  const int xv = coordinate(nc, "x", sec.x0_rad, sec.dx_rad, "X"),
+            yv = coordinate(nc, "y", sec.y0_rad, sec.dy_rad, "Y");
+  const int proj = define_projection(nc, view);
+  const int band_id = nc.add_variable("band_id", io::NcType::i8, {});
+  nc.put_attribute(band_id, "long_name", "ABI band number");
+  Scalars sc;
+  add_band_scalars(nc, sc, band, packed.pc, view, sun_distance_au);
+  const SummaryVariables summary = add_summary(nc, sc, packed, cover, view, rad_units);
+  const int yaw = nc.add_variable("yaw_flip_flag", io::NcType::i8, {});
+  nc.put_attribute(yaw, "long_name", "Flag indicating the spacecraft is operating in yaw flip configuration");
+  // Time: seconds since 2000-01-01 12:00:00 (J2000), the scan's middle and its bounds.
+  const double t0 = start.days_since_j2000() * 86400, scan = scan_seconds(sec.abbreviation);
+  sc.add(nc, "t", t0 + 0.5 * scan, "seconds since 2000-01-01 12:00:00",
+         "J2000 epoch mid-point between the start and end image scan in seconds", true);
+  const int tb = nc.add_variable("time_bounds", io::NcType::f64, {"number_of_time_bounds"});
+  nc.put_attribute(tb, "long_name", "Scan start and end times in seconds since epoch (2000-01-01 12:00:00)");
+  put_global_attributes(nc, path, band, view, start, start.plus_seconds(scan));
   nc.end_definitions();
   // Data.
   nc.write(rad, packed.rad.data());
