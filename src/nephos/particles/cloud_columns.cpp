@@ -206,49 +206,52 @@ ColumnCloud column_cloud(const LayerColumn& c, const ColumnParams& p) {
   return out;
 }
 
-ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grids, const LatLonRegion& region,
-                                   const ColumnParams& params) {
-  using weather::Field;
-  if (grids.empty()) throw ValueError("no weather given");
-  const weather::LatLonGrid& g = grids.front().grid();
-  for (const auto& w : grids)
-    if (!(w.grid() == g))
-      throw FormatError("all weather files must share one grid (" + g.describe() + " vs " + w.grid().describe() + ")",
-                        {.file = w.metadata().source});
+namespace {
 
-  // Region -> rows (south first) and columns (eastwards from the region's west edge).
+// The weather grid's cells inside a region: rows south first, columns eastwards from the
+// region's west edge (a region across the date line starts mid-grid), and the first column's
+// longitude counted from that edge [deg].
+struct RegionCells {
   std::vector<int> rows, cols;
+  double first_lon_deg = 0;
+};
+
+RegionCells region_cells(const weather::LatLonGrid& g, const LatLonRegion& region) {
+  RegionCells rc;
   for (int j = 0; j < g.nlat; ++j)
-    if (g.lat(j) >= region.lat0_deg - 1e-9 && g.lat(j) <= region.lat1_deg + 1e-9) rows.push_back(j);
+    if (g.lat(j) >= region.lat0_deg - 1e-9 && g.lat(j) <= region.lat1_deg + 1e-9) rc.rows.push_back(j);
   double span = std::fmod(region.lon1_deg - region.lon0_deg + 720.0, 360.0);
   if (span == 0 && region.lon1_deg != region.lon0_deg) span = 360;
-  for (int n = 0; n < g.nlon; ++n) {
-    const double off = std::fmod(g.lon(n) - region.lon0_deg + 720.0, 360.0);
-    if (off <= span + 1e-9) cols.push_back(n);
-  }
-  // Order columns eastwards from the west edge (a wrapping region starts mid-grid).
-  std::sort(cols.begin(), cols.end(), [&](int a, int b) {
-    return std::fmod(g.lon(a) - region.lon0_deg + 720.0, 360.0) < std::fmod(g.lon(b) - region.lon0_deg + 720.0, 360.0);
-  });
-  if (rows.size() < 2 || cols.size() < 2)
-    throw ValueError("the region holds " + std::to_string(cols.size()) + " x " + std::to_string(rows.size()) +
+  auto east_of_edge = [&](int n) { return std::fmod(g.lon(n) - region.lon0_deg + 720.0, 360.0); };
+  for (int n = 0; n < g.nlon; ++n)
+    if (east_of_edge(n) <= span + 1e-9) rc.cols.push_back(n);
+  std::sort(rc.cols.begin(), rc.cols.end(), [&](int a, int b) { return east_of_edge(a) < east_of_edge(b); });
+  if (rc.rows.size() < 2 || rc.cols.size() < 2)
+    throw ValueError("the region holds " + std::to_string(rc.cols.size()) + " x " + std::to_string(rc.rows.size()) +
                          " grid columns of " + g.describe() + "; at least 2 x 2 are needed",
                      {.key = "region"});
-  const double first_lon = region.lon0_deg + std::fmod(g.lon(cols.front()) - region.lon0_deg + 720.0, 360.0);
+  rc.first_lon_deg = region.lon0_deg + east_of_edge(rc.cols.front());
+  return rc;
+}
 
-  ParticleWeather pw;
-  PlanarGrid& pg = pw.grid;
-  pg.cols = static_cast<int>(cols.size());
-  pg.rows = static_cast<int>(rows.size());
-  pg.centre_lat_deg = 0.5 * (g.lat(rows.front()) + g.lat(rows.back()));
-  const double centre_lon = first_lon + 0.5 * (pg.cols - 1) * g.dlon_deg;
+// The region's cells as a planar grid centred on the region, x east and y north [m].
+PlanarGrid planar_grid(const weather::LatLonGrid& g, const RegionCells& rc) {
+  PlanarGrid pg;
+  pg.cols = static_cast<int>(rc.cols.size());
+  pg.rows = static_cast<int>(rc.rows.size());
+  pg.centre_lat_deg = 0.5 * (g.lat(rc.rows.front()) + g.lat(rc.rows.back()));
+  const double centre_lon = rc.first_lon_deg + 0.5 * (pg.cols - 1) * g.dlon_deg;
   pg.centre_lon_deg = std::fmod(centre_lon + 540.0, 360.0) - 180.0;
   const double r = earth::radius_m * std::cos(pg.centre_lat_deg * deg);
   pg.dx_m = r * g.dlon_deg * deg;
   pg.dy_m = earth::radius_m * g.dlat_deg * deg;
   pg.x0_m = -0.5 * (pg.cols - 1) * pg.dx_m;
-  pg.y0_m = (g.lat(rows.front()) - pg.centre_lat_deg) * deg * earth::radius_m;
+  pg.y0_m = (g.lat(rc.rows.front()) - pg.centre_lat_deg) * deg * earth::radius_m;
+  return pg;
+}
 
+// The grids in time order; FormatError naming both files where two share a valid time.
+std::vector<weather::WeatherGrid> in_time_order(const std::vector<weather::WeatherGrid>& grids) {
   std::vector<weather::WeatherGrid> sorted = grids;
   std::sort(sorted.begin(), sorted.end(),
             [](const auto& a, const auto& b) { return a.metadata().valid_time < b.metadata().valid_time; });
@@ -257,66 +260,94 @@ ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grid
       throw FormatError(fmt::format("two weather grids at the same valid time {}; give each time once",
                                     sorted[f].metadata().valid_time.iso()),
                         {.file = sorted[f - 1].metadata().source + ", " + sorted[f].metadata().source});
+  return sorted;
+}
+
+// The pressure levels of `w` that hold every field the particles need; FormatError naming the
+// file and field where a field is missing or fewer than two levels hold them all.
+std::vector<int> cloud_levels(const weather::WeatherGrid& w) {
+  using weather::Field;
+  for (Field f : {Field::geopotential_height, Field::temperature, Field::cloud_water, Field::u_wind, Field::v_wind})
+    if (!w.has(f))
+      throw FormatError("the particle system needs this field, which the file lacks",
+                        {.file = w.metadata().source, .field = weather::info(f).grib_short_name});
+  std::vector<int> levels;
+  for (int k = 0; k < w.level_count(); ++k)
+    if (w.has(Field::geopotential_height, k) && w.has(Field::temperature, k) && w.has(Field::cloud_water, k) &&
+        w.has(Field::u_wind, k) && w.has(Field::v_wind, k))
+      levels.push_back(k);
+  if (levels.size() < 2)
+    throw FormatError("fewer than 2 pressure levels hold gh, t, clwmr, u and v together",
+                      {.file = w.metadata().source, .field = "clwmr"});
+  return levels;
+}
+
+// One weather time as a frame: per cell its wind on the cloud levels and its cloud column.
+WeatherFrame weather_frame(const weather::WeatherGrid& w, const RegionCells& rc, const PlanarGrid& pg,
+                           const UtcTime& t0, const ColumnParams& params) {
+  using weather::Field;
+  const std::vector<int> levels = cloud_levels(w);
+  const bool has_omega = std::all_of(levels.begin(), levels.end(), [&](int k) { return w.has(Field::omega, k); });
+  if (!has_omega)
+    spdlog::warn("{}: no vertical velocity (w) on every cloud level; particles move horizontally only",
+                 w.metadata().source);
+  WeatherFrame fr;
+  fr.valid_time = w.metadata().valid_time;
+  fr.time_s = static_cast<double>(fr.valid_time.unix_s - t0.unix_s);
+  const std::size_t plane = pg.size(), nl = levels.size();
+  fr.allocate(plane, static_cast<int>(nl));
+  const auto& p_pa = w.pressure_levels_pa();
+  LayerColumn col;
+  col.resize(nl);
+  std::vector<double> z(nl);
+  for (int rj = 0; rj < pg.rows; ++rj)
+    for (int ci = 0; ci < pg.cols; ++ci) {
+      const int j = rc.rows[static_cast<std::size_t>(rj)], i = rc.cols[static_cast<std::size_t>(ci)];
+      const std::size_t c = static_cast<std::size_t>(rj) * pg.cols + static_cast<std::size_t>(ci);
+      for (std::size_t m = 0; m < nl; ++m) z[m] = w.value(Field::geopotential_height, levels[m], j, i);
+      for (std::size_t m = 0; m < nl; ++m) {
+        const int k = levels[m];
+        // Layer interfaces half-way between level heights; the outer layers are symmetric.
+        col.z_lower_m[m] = m == 0 ? z[0] - 0.5 * (z[1] - z[0]) : 0.5 * (z[m - 1] + z[m]);
+        col.z_upper_m[m] = m + 1 == nl ? z[m] + 0.5 * (z[m] - z[m - 1]) : 0.5 * (z[m] + z[m + 1]);
+        const double t = w.value(Field::temperature, k, j, i);
+        const double rho = p_pa[static_cast<std::size_t>(k)] / (r_dry_air * t);
+        const double q = std::max(0.0, static_cast<double>(w.value(Field::cloud_water, k, j, i)));
+        const double ice =
+            std::clamp((params.ice_ramp_warm_k - t) / (params.ice_ramp_warm_k - params.ice_ramp_cold_k), 0.0, 1.0);
+        col.air_density[m] = rho;
+        col.q_liquid[m] = q * (1 - ice);
+        col.q_ice[m] = q * ice;
+        const std::size_t a = m * plane + c;
+        fr.wind.z_m[a] = static_cast<float>(z[m]);
+        fr.wind.u[a] = w.value(Field::u_wind, k, j, i);
+        fr.wind.v[a] = w.value(Field::v_wind, k, j, i);
+        // omega [Pa/s] -> w [m/s] by hydrostatic balance: w = -omega / (rho g).
+        fr.wind.w[a] = has_omega ? static_cast<float>(-w.value(Field::omega, k, j, i) / (rho * g0)) : 0.0f;
+      }
+      store(fr.columns, c, column_cloud(col, params));
+    }
+  return fr;
+}
+
+}  // namespace
+
+ParticleWeather from_weather_grids(const std::vector<weather::WeatherGrid>& grids, const LatLonRegion& region,
+                                   const ColumnParams& params) {
+  if (grids.empty()) throw ValueError("no weather given");
+  const weather::LatLonGrid& g = grids.front().grid();
+  for (const auto& w : grids)
+    if (!(w.grid() == g))
+      throw FormatError("all weather files must share one grid (" + g.describe() + " vs " + w.grid().describe() + ")",
+                        {.file = w.metadata().source});
+  const RegionCells rc = region_cells(g, region);
+  ParticleWeather pw;
+  pw.grid = planar_grid(g, rc);
+  const std::vector<weather::WeatherGrid> sorted = in_time_order(grids);
   const UtcTime t0 = sorted.front().metadata().valid_time;
   pw.source = sorted.front().metadata().source;
   for (std::size_t f = 1; f < sorted.size(); ++f) pw.source += ", " + sorted[f].metadata().source;
-
-  for (const auto& w : sorted) {
-    for (Field f : {Field::geopotential_height, Field::temperature, Field::cloud_water, Field::u_wind, Field::v_wind})
-      if (!w.has(f))
-        throw FormatError("the particle system needs this field, which the file lacks",
-                          {.file = w.metadata().source, .field = weather::info(f).grib_short_name});
-    std::vector<int> levels;
-    for (int k = 0; k < w.level_count(); ++k)
-      if (w.has(Field::geopotential_height, k) && w.has(Field::temperature, k) && w.has(Field::cloud_water, k) &&
-          w.has(Field::u_wind, k) && w.has(Field::v_wind, k))
-        levels.push_back(k);
-    if (levels.size() < 2)
-      throw FormatError("fewer than 2 pressure levels hold gh, t, clwmr, u and v together",
-                        {.file = w.metadata().source, .field = "clwmr"});
-    const bool has_omega = std::all_of(levels.begin(), levels.end(), [&](int k) { return w.has(Field::omega, k); });
-    if (!has_omega)
-      spdlog::warn("{}: no vertical velocity (w) on every cloud level; particles move horizontally only",
-                   w.metadata().source);
-
-    WeatherFrame fr;
-    fr.valid_time = w.metadata().valid_time;
-    fr.time_s = static_cast<double>(fr.valid_time.unix_s - t0.unix_s);
-    const std::size_t plane = pg.size(), nl = levels.size();
-    fr.allocate(plane, static_cast<int>(nl));
-    const auto& p_pa = w.pressure_levels_pa();
-    LayerColumn col;
-    col.resize(nl);
-    std::vector<double> z(nl);
-    for (int rj = 0; rj < pg.rows; ++rj)
-      for (int ci = 0; ci < pg.cols; ++ci) {
-        const int j = rows[static_cast<std::size_t>(rj)], i = cols[static_cast<std::size_t>(ci)];
-        const std::size_t c = static_cast<std::size_t>(rj) * pg.cols + static_cast<std::size_t>(ci);
-        for (std::size_t m = 0; m < nl; ++m) z[m] = w.value(Field::geopotential_height, levels[m], j, i);
-        for (std::size_t m = 0; m < nl; ++m) {
-          const int k = levels[m];
-          // Layer interfaces half-way between level heights; the outer layers are symmetric.
-          col.z_lower_m[m] = m == 0 ? z[0] - 0.5 * (z[1] - z[0]) : 0.5 * (z[m - 1] + z[m]);
-          col.z_upper_m[m] = m + 1 == nl ? z[m] + 0.5 * (z[m] - z[m - 1]) : 0.5 * (z[m] + z[m + 1]);
-          const double t = w.value(Field::temperature, k, j, i);
-          const double rho = p_pa[static_cast<std::size_t>(k)] / (r_dry_air * t);
-          const double q = std::max(0.0, static_cast<double>(w.value(Field::cloud_water, k, j, i)));
-          const double ice =
-              std::clamp((params.ice_ramp_warm_k - t) / (params.ice_ramp_warm_k - params.ice_ramp_cold_k), 0.0, 1.0);
-          col.air_density[m] = rho;
-          col.q_liquid[m] = q * (1 - ice);
-          col.q_ice[m] = q * ice;
-          const std::size_t a = m * plane + c;
-          fr.wind.z_m[a] = static_cast<float>(z[m]);
-          fr.wind.u[a] = w.value(Field::u_wind, k, j, i);
-          fr.wind.v[a] = w.value(Field::v_wind, k, j, i);
-          // omega [Pa/s] -> w [m/s] by hydrostatic balance: w = -omega / (rho g).
-          fr.wind.w[a] = has_omega ? static_cast<float>(-w.value(Field::omega, k, j, i) / (rho * g0)) : 0.0f;
-        }
-        store(fr.columns, c, column_cloud(col, params));
-      }
-    pw.frames.push_back(std::move(fr));
-  }
+  for (const auto& w : sorted) pw.frames.push_back(weather_frame(w, rc, pw.grid, t0, params));
   pw.validate();
   return pw;
 }
