@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -34,6 +35,7 @@
 #include "nephos/lbm/raycast.hpp"
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/optics/optics.hpp"
+#include "nephos/particles/job.hpp"
 #include "nephos/realtime/gl/flight_job.hpp"
 #include "nephos/realtime/gl/sprite_renderer.hpp"
 #include "nephos/realtime/weather_input.hpp"
@@ -552,6 +554,52 @@ py::dict run_lbm(std::tuple<int, int, int> grid, std::optional<int> silos, long 
   return d;
 }
 
+// nephos.run_particles: `nephos particles` in this process, from keyword arguments (the fields
+// of ParticlesRequest), writing its outputs; what it generated and drew as a dict.
+py::dict run_particles(const std::vector<std::string>& weather, const std::optional<std::string>& wrf,
+                       const std::optional<std::string>& region, std::uint64_t count, int frames, double frame_minutes,
+                       const std::optional<std::array<double, 5>>& camera, std::pair<int, int> size, double k,
+                       double lod_l0_km, bool lod, const std::string& transmission, int refine, bool ply,
+                       const std::string& background, const std::string& out, std::uint64_t seed) {
+  particles::ParticlesRequest r;
+  r.weather.assign(weather.begin(), weather.end());
+  r.wrf = wrf.value_or("");
+  if (region) r.region = particles::LatLonRegion::parse(*region, "region");
+  r.count = count;
+  r.frames = frames;
+  r.frame_minutes = frame_minutes;
+  r.camera = camera;
+  std::tie(r.width, r.height) = size;
+  r.k = k;
+  r.lod_l0_km = lod_l0_km;
+  r.lod = lod;
+  r.transmission = particles::transmission_named(transmission, "transmission");
+  r.refine = refine;
+  r.ply = ply;
+  r.transparent = realtime::transparent_background(background);
+  r.out = out;
+  r.seed = seed;
+  particles::ParticlesResult res;
+  {
+    py::gil_scoped_release release;
+    res = particles::run_particles(r);
+  }
+  py::list drawn;
+  for (const auto& f : res.frames) {
+    py::dict d;
+    d["time_s"] = f.time_s, d["time"] = f.time_utc, d["particles"] = f.particles, d["drawn"] = f.drawn;
+    drawn.append(d);
+  }
+  py::dict d;
+  d["particles"] = res.particles;
+  d["source"] = res.source;
+  d["columns"] = py::make_tuple(res.cols, res.rows);
+  d["cell_m"] = py::make_tuple(res.cell_dx_m, res.cell_dy_m);
+  d["generation_s"] = res.generation_s;
+  d["frames"] = drawn;
+  return d;
+}
+
 py::tuple percolate(const py::array_t<float, py::array::c_style | py::array::forcecast>& vapour, int refinement,
                     std::uint64_t seed, double rho10) {
   const lbm::Grid3 g = grid_of(vapour, "vapour");
@@ -758,6 +806,23 @@ void def_lbm(py::module_& m) {
         "as (nz, ny, nx) float32 arrays (vapour, temperature, percolated_density, cloud, light) and steps, "
         "percolation_steps, lighting_steps, lighting_residual. grid: (nx, ny, nz); sun: (azimuth, elevation) [deg]; "
         "size: (width, height) of render.png.");
+  {
+    const particles::ParticlesRequest d;  // the defaults, as the command line's
+    m.def("run_particles", &run_particles, py::kw_only(), py::arg("weather") = std::vector<std::string>{},
+          py::arg("wrf") = py::none(), py::arg("region") = py::none(), py::arg("count") = d.count,
+          py::arg("frames") = d.frames, py::arg("frame_minutes") = d.frame_minutes, py::arg("camera") = py::none(),
+          py::arg("size") = std::make_pair(d.width, d.height), py::arg("k") = d.k, py::arg("lod_l0_km") = d.lod_l0_km,
+          py::arg("lod") = d.lod, py::arg("transmission") = "two-stream", py::arg("refine") = d.refine,
+          py::arg("ply") = d.ply, py::arg("background") = "sky", py::arg("out") = d.out.string(),
+          py::arg("seed") = d.seed,
+          "`nephos particles` in this process: particle clouds from GRIB files (`weather`, every valid time of each; "
+          "none: the embedded GFS sample) or WRF output (`wrf`), over `region` (\"LAT0,LON0,LAT1,LON1\" [deg]), "
+          "drawn headless as `frames` frames of `size` (width, height) into `out` (frame_NNNN.png, "
+          "particles_NNNN.ply unless ply=False, columns.nc, frames.csv). camera: (x [km], y [km], altitude [km], "
+          "heading, pitch [deg]); transmission: two-stream or beer; background: sky or transparent. A dict: "
+          "particles, source, columns (cols, rows), cell_m (dx, dy), generation_s and frames (per frame time_s, "
+          "time, particles, drawn).");
+  }
   m.def("percolate", &percolate, py::arg("vapour"), py::arg("refinement") = 5, py::arg("seed") = 1,
         py::arg("rho10") = 1.0,
         "Nagel-Raschke percolation of a vapour field on the grid refined K times: (cloud fraction (nz, ny, nx), "

@@ -521,6 +521,37 @@ class Lbm(unittest.TestCase):
                 unstable.step(30)
 
 
+class Particles(unittest.TestCase):
+    def test_run_particles_equals_nephos_particles_bit_for_bit(self):
+        # One request, two front ends: the frames, the particle sets and the columns of
+        # `nephos particles` with the same options, byte for byte, over a region across the date
+        # line, with a camera and transparent frames; the frames' particle counts those of
+        # frames.csv (its timing columns aside).
+        with tempfile.TemporaryDirectory() as d:
+            py_out, cli_out = Path(d) / "py", Path(d) / "cli"
+            got = nephos.run_particles(region="20,170,60,-140", count=5000, frames=2, size=(160, 90),
+                                       camera=(0, -2500, 3, 0, 5), background="transparent", out=str(py_out), seed=3)
+            cli("--seed", 3, "particles", "--region", "20,170,60,-140", "--count", 5000, "--frames", 2, "--size",
+                "160x90", "--camera", "0,-2500,3,0,5", "--background", "transparent", "--out", cli_out)
+            names = sorted(p.name for p in cli_out.iterdir())
+            self.assertEqual(names, sorted(p.name for p in py_out.iterdir()))
+            self.assertEqual(len([n for n in names if n.endswith(".ply")]), 2)
+            for name in names:
+                if name != "frames.csv":
+                    self.assertEqual((py_out / name).read_bytes(), (cli_out / name).read_bytes(), name)
+            rows = (cli_out / "frames.csv").read_text().splitlines()[1:]
+            self.assertEqual([(f["time"], f["particles"], f["drawn"]) for f in got["frames"]],
+                             [(r.split(",")[1], int(r.split(",")[3]), int(r.split(",")[4])) for r in rows])
+            self.assertEqual(got["particles"], 5000)
+            self.assertTrue(got["source"].endswith(SAMPLE.name), got["source"])
+        for kwargs, needle in ((dict(count=0), "'count'"), (dict(transmission="x"), "'transmission'"),
+                               (dict(region="1,2"), "'region'"), (dict(camera=(0, 0, -1, 0, 0)), "'camera'"),
+                               (dict(size=(0, 5)), "'size'"), (dict(refine=-1), "'refine'"),
+                               (dict(background="pink"), "'background'"), (dict(wrf="a.nc", weather=["b"]), "'wrf'")):
+            with self.assertRaisesRegex(ValueError, needle, msg=str(kwargs)):
+                nephos.run_particles(out=str(Path(tempfile.gettempdir()) / "never"), **kwargs)
+
+
 class Flight(unittest.TestCase):
     def test_frames_equal_nephos_fly_bit_for_bit(self):
         # The same flight, weather change included: every frame the PNG's pixels, and the
