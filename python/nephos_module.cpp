@@ -44,6 +44,7 @@
 #include "nephos/render/renderer.hpp"
 #include "nephos/render/sensor.hpp"
 #include "nephos/weather/masks.hpp"
+#include "nephos/weather/masks_job.hpp"
 #include "nephos/weather/reader.hpp"
 #include "nephos/weather/synthetic.hpp"
 
@@ -554,6 +555,45 @@ py::dict run_lbm(std::tuple<int, int, int> grid, std::optional<int> silos, long 
   return d;
 }
 
+// nephos.run_masks: `nephos masks` in this process, from keyword arguments (the fields of
+// MasksRequest), writing masks.nc and the PNGs; the masks, their cover and the agreement.
+py::dict run_masks(const std::optional<std::string>& weather, const std::optional<std::string>& weather_time,
+                   bool synthetic, const std::optional<std::string>& config, int png_width, const std::string& out,
+                   std::uint64_t seed) {
+  weather::MasksRequest r;
+  r.weather.file = weather.value_or("");
+  if (weather_time) r.weather.valid_time = parse_time(*weather_time, "weather_time");
+  r.weather.synthetic = synthetic;
+  r.config = config.value_or("");
+  r.png_width = png_width;
+  r.out = out;
+  r.seed = seed;
+  weather::MasksResult res;
+  {
+    py::gil_scoped_release release;
+    res = weather::run_masks(r);
+  }
+  py::dict masks, cover;
+  const auto shape = std::vector<py::ssize_t>{res.grid.nlat, res.grid.nlon};
+  for (int t = 0; t < weather::cloud_type_count; ++t) {
+    const auto type = static_cast<weather::CloudType>(t);
+    const py::str name(std::string(weather::name(type)));
+    masks[name] = to_array(res.masks[type], shape);
+    cover[name] = res.cover[static_cast<std::size_t>(t)];
+  }
+  py::list agreement;
+  for (const auto& a : res.agreement) {
+    py::dict d;
+    d["layer"] = std::string(weather::name(a.layer)), d["mask"] = a.mask, d["mask_cover"] = a.mask_cover;
+    d["gfs_cover"] = a.gfs_cover, d["correlation"] = a.correlation;
+    agreement.append(d);
+  }
+  py::dict d;
+  d["masks"] = masks, d["cover"] = cover, d["agreement"] = agreement;
+  d["valid_time"] = res.weather.valid_time.iso();
+  return d;
+}
+
 // nephos.run_particles: `nephos particles` in this process, from keyword arguments (the fields
 // of ParticlesRequest), writing its outputs; what it generated and drew as a dict.
 py::dict run_particles(const std::vector<std::string>& weather, const std::optional<std::string>& wrf,
@@ -806,6 +846,18 @@ void def_lbm(py::module_& m) {
         "as (nz, ny, nx) float32 arrays (vapour, temperature, percolated_density, cloud, light) and steps, "
         "percolation_steps, lighting_steps, lighting_residual. grid: (nx, ny, nz); sun: (azimuth, elevation) [deg]; "
         "size: (width, height) of render.png.");
+  {
+    const weather::MasksRequest d;  // the defaults, as the command line's
+    m.def("run_masks", &run_masks, py::kw_only(), py::arg("weather") = py::none(), py::arg("weather_time") = py::none(),
+          py::arg("synthetic") = false, py::arg("config") = py::none(), py::arg("png_width") = d.png_width,
+          py::arg("out") = d.out.string(), py::arg("seed") = d.seed,
+          "`nephos masks` in this process: the four cloud masks (Table 1) of a GRIB file (`weather`; none: the "
+          "embedded GFS sample; `weather_time` ISO 8601 for a file with several) or of synthetic weather, written as "
+          "masks.nc and a PNG per type (`png_width` wide) into `out`. `config`: a TOML file with [cloud_fraction] "
+          "and [masks.*] tables. A dict: masks {type: (nlat, nlon) float32}, cover {type: area-weighted mean}, "
+          "agreement (per layer with GFS's cloud cover: layer, mask, mask_cover, gfs_cover, correlation), "
+          "valid_time.");
+  }
   {
     const particles::ParticlesRequest d;  // the defaults, as the command line's
     m.def("run_particles", &run_particles, py::kw_only(), py::arg("weather") = std::vector<std::string>{},

@@ -48,6 +48,38 @@ class Weather(unittest.TestCase):
                 self.assertEqual(a.shape, (73, 144))
                 self.assertTrue(np.array_equal(a, ref[name][:]), name)
 
+    def test_run_masks_writes_what_nephos_masks_writes(self):
+        # One request, two front ends: masks.nc and the four PNGs of `nephos masks` with the same
+        # configuration and PNG width, byte for byte; the returned masks those of masks.nc, and
+        # the cover and agreement those the command prints.
+        with tempfile.TemporaryDirectory() as d:
+            config = Path(d) / "masks.toml"
+            config.write_text("[cloud_fraction]\nrh_critical = 0.7\n[masks]\nvertical_step_m = 250.0\n")
+            py_out, cli_out = Path(d) / "py", Path(d) / "cli"
+            got = nephos.run_masks(weather=str(SAMPLE), config=str(config), png_width=360, out=str(py_out))
+            r = subprocess.run([NEPHOS, "-q", "masks", "--weather", str(SAMPLE), "--config", str(config),
+                                "--png-width", "360", "--out", str(cli_out)], capture_output=True, text=True,
+                               timeout=300)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            names = sorted(p.name for p in cli_out.iterdir())
+            self.assertEqual(names, sorted(p.name for p in py_out.iterdir()))
+            self.assertEqual(len(names), 5)
+            for name in names:
+                self.assertEqual((py_out / name).read_bytes(), (cli_out / name).read_bytes(), name)
+            ref = netcdf(cli_out / "masks.nc")
+            for name, a in got["masks"].items():
+                self.assertTrue(np.array_equal(a, ref[name][:]), name)
+                self.assertIn(f"{name:<12} {got['cover'][name]:>10.3f}", r.stdout)
+            self.assertEqual([a["layer"] for a in got["agreement"]], ["low", "middle", "high"])
+            for a in got["agreement"]:
+                self.assertIn(f"{a['gfs_cover']:>10.3f} {a['correlation']:>12.3f}", r.stdout)
+            self.assertEqual(got["valid_time"], "2011-01-15T12:00:00Z")
+            for kwargs, needle in ((dict(png_width=8), "'png_width'"), (dict(weather_time="x"), "'weather_time'"),
+                                   (dict(synthetic=True, weather_time="2011-01-15T12:00:00Z"), "'weather_time'")):
+                with self.assertRaisesRegex(ValueError, needle, msg=str(kwargs)):
+                    nephos.run_masks(out=str(Path(d) / "never"), **kwargs)
+            self.assertFalse((Path(d) / "never").exists())
+
     def test_pressure_level_fields_and_layer_cover(self):
         # The 500 hPa level's global mean height and temperature against the US Standard
         # Atmosphere 1976 (5574 m, 252.0 K): a real day's global means lie within ~150 m and

@@ -15,53 +15,44 @@
 #include "nephos/lbm/water_model.hpp"
 #include "nephos/weather/info.hpp"
 #include "nephos/weather/masks.hpp"
-#include "nephos/weather/masks_io.hpp"
-
-namespace fs = std::filesystem;
+#include "nephos/weather/masks_job.hpp"
 
 namespace nephos::app {
 
 namespace {
 
+// The command's options; their defaults are the request's (weather/masks_job.hpp).
 struct MasksOptions {
+  inline static const weather::MasksRequest defaults{};
   WeatherOptions weather;
-  std::string out = "out";
+  std::string out = defaults.out.string();
   std::string config;
-  int png_width = 1440;
+  int png_width = defaults.png_width;
 };
 
 int run_masks(const MasksOptions& o, const GlobalOptions& g) {
   const auto t0 = std::chrono::steady_clock::now();
-  const weather::MaskParams params = weather::MaskParams::from_file(o.config);
-  const weather::WeatherGrid w = weather::load_weather(weather_source(o.weather), g.seed);
-  const auto& m = w.metadata();
-  spdlog::info("valid {} (run {} + {:g} h), {}", m.valid_time.iso(), m.reference_time.iso(), m.forecast_step_h,
-               w.grid().describe());
-  const weather::WeatherMasks masks = weather::compute_masks(w, params);
-
-  const fs::path out(o.out);
-  ensure_directory(out);
-  weather::write_masks_netcdf(out / "masks.nc", masks, w, params);
-  for (int t = 0; t < weather::cloud_type_count; ++t) {
-    const auto type = static_cast<weather::CloudType>(t);
-    weather::write_mask_png(out / (std::string(weather::name(type)) + ".png"), masks.grid, masks[type], o.png_width);
-  }
+  weather::MasksRequest r;
+  r.weather = weather_source(o.weather);
+  r.config = o.config;
+  r.png_width = o.png_width;
+  r.out = o.out;
+  r.seed = g.seed;
+  const weather::MasksResult res = weather::run_masks(r);
   std::cout << fmt::format("{:<12} {:>10}\n", "mask", "cover");
-  for (int t = 0; t < weather::cloud_type_count; ++t) {
-    const auto type = static_cast<weather::CloudType>(t);
-    std::cout << fmt::format("{:<12} {:>10.3f}\n", weather::name(type), weather::area_mean(masks.grid, masks[type]));
-  }
-  const auto agreement = weather::compare_with_gfs_cloud_cover(masks, w);
-  if (!agreement.empty()) {
+  for (int t = 0; t < weather::cloud_type_count; ++t)
+    std::cout << fmt::format("{:<12} {:>10.3f}\n", weather::name(static_cast<weather::CloudType>(t)),
+                             res.cover[static_cast<std::size_t>(t)]);
+  if (!res.agreement.empty()) {
     std::cout << "\nagreement with GFS cloud cover (area-weighted):\n";
     std::cout << fmt::format("{:<7} {:<30} {:>10} {:>10} {:>12}\n", "layer", "mask", "mask cover", "GFS cover",
                              "correlation");
-    for (const auto& a : agreement)
+    for (const auto& a : res.agreement)
       std::cout << fmt::format("{:<7} {:<30} {:>10.3f} {:>10.3f} {:>12.3f}\n", weather::name(a.layer), a.mask,
                                a.mask_cover, a.gfs_cover, a.correlation);
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({})", out.string(), secs, threads_text());
+  spdlog::info("wrote {}/masks.nc and 4 PNGs in {:.2f} s ({})", r.out.string(), secs, threads_text());
   return 0;
 }
 
@@ -84,9 +75,11 @@ Command add_masks_command(CLI::App& app, const GlobalOptions& g) {
   add_weather_source_options(masks, o->weather);
   masks->add_option("--out", o->out, "Output directory")->capture_default_str();
   masks->add_option("--config", o->config, "TOML file with [cloud_fraction] and [masks.*] parameters");
-  masks->add_option("--png-width", o->png_width, "Width of the PNG previews [pixels]")
-      ->capture_default_str()
-      ->check(CLI::Range(16, 16384));
+  masks
+      ->add_option(
+          "--png-width", o->png_width,
+          fmt::format("Width of the PNG previews [pixels], {}-{}", weather::min_png_width, weather::max_png_width))
+      ->capture_default_str();
   return {masks, [o, &g] { return run_masks(*o, g); }};
 }
 
