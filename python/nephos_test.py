@@ -578,6 +578,7 @@ class Particles(unittest.TestCase):
             self.assertTrue(got["source"].endswith(SAMPLE.name), got["source"])
         for kwargs, needle in ((dict(count=0), "'count'"), (dict(transmission="x"), "'transmission'"),
                                (dict(region="1,2"), "'region'"), (dict(camera=(0, 0, -1, 0, 0)), "'camera'"),
+                               (dict(camera=(float("nan"), 0, 1, 0, 0)), "'camera'"),
                                (dict(size=(0, 5)), "'size'"), (dict(refine=-1), "'refine'"),
                                (dict(background="pink"), "'background'"), (dict(wrf="a.nc", weather=["b"]), "'wrf'")):
             with self.assertRaisesRegex(ValueError, needle, msg=str(kwargs)):

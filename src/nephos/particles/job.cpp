@@ -35,6 +35,11 @@ void check(const ParticlesRequest& r) {
   require_range(r.frame_minutes, 1e-3, 1e6, "frame_minutes", "the time between frames [min]");
   require_range(r.lod_l0_km, 0, 1e5, "lod_l0_km", "eq. 13's L0 [km] (0: a quarter of the region)");
   if (r.camera) {
+    for (double v : *r.camera)
+      if (!std::isfinite(v))
+        throw ValueError(
+            fmt::format("expected five finite numbers (X_KM, Y_KM, ALT_KM, HEADING_DEG, PITCH_DEG), got {}", v),
+            {.key = "camera"});
     require_range((*r.camera)[2], 0, 1e5, "camera", "the camera's altitude [km]");
     require_range((*r.camera)[4], -90, 90, "camera", "the camera's pitch [deg]");
   }
