@@ -88,7 +88,9 @@ Command add_particles_command(CLI::App& app, const GlobalOptions& g) {
   part->add_option("--camera", o->camera, "X_KM,Y_KM,ALT_KM,HEADING_DEG,PITCH_DEG (default: south of the region)");
   part->add_option("--size", o->size, "Frame WIDTHxHEIGHT")->capture_default_str();
   part->add_option("--k", o->k, "Eq. 5's K: selection probability min(1, K tau / tau_max)")->capture_default_str();
-  part->add_option("--lod-l0-km", o->lod_l0_km, "Eq. 13's L0 [km] (0: a quarter of the region)")->capture_default_str();
+  part->add_option("--lod-l0-km", o->lod_l0_km,
+                   "Eq. 13's L0 [km] (0: 60 % of the camera's distance to the region's centre)")
+      ->capture_default_str();
   part->add_flag("--no-lod", o->no_lod, "Draw every particle");
   part->add_option("--transmission", o->transmission, "two-stream or beer")->capture_default_str();
   part->add_option("--refine", o->refine, "Split each weather cell NxN (0: GFS to <= 30 km cells, WRF unchanged)")

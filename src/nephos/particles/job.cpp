@@ -33,7 +33,8 @@ void check(const ParticlesRequest& r) {
   if (r.count < 1) throw ValueError("must be >= 1", {.key = "count"});
   require_memory(bytes_per_particle * static_cast<double>(r.count), "count", fmt::format("{} particles", r.count));
   require_range(r.frame_minutes, 1e-3, 1e6, "frame_minutes", "the time between frames [min]");
-  require_range(r.lod_l0_km, 0, 1e5, "lod_l0_km", "eq. 13's L0 [km] (0: a quarter of the region)");
+  require_range(r.lod_l0_km, 0, 1e5, "lod_l0_km",
+                "eq. 13's L0 [km] (0: 60 % of the camera's distance to the region's centre)");
   if (r.camera) {
     for (double v : *r.camera)
       if (!std::isfinite(v))

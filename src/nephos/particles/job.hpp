@@ -28,7 +28,7 @@ struct ParticlesRequest {
       camera;                      ///< X [km], Y [km], altitude [km], heading, pitch [deg]; empty: south of the region
   int width = 1280, height = 720;  ///< frame [pixels]
   double k = 1;                    ///< eq. 5's K: selection probability min(1, K tau / tau_max)
-  double lod_l0_km = 0;            ///< eq. 13's L0 [km] (0: a quarter of the region)
+  double lod_l0_km = 0;            ///< eq. 13's L0 [km] (0: 60 % of the camera's distance to the region's centre)
   bool lod = true;                 ///< thin the particles with distance (eq. 13)
   Transmission transmission = Transmission::two_stream;
   int refine = 0;            ///< each weather cell split N x N (0: GFS to <= 30 km cells, WRF unchanged)
