@@ -81,6 +81,17 @@ std::vector<std::string> names(const NameList& v, const std::string& key) {
   return std::get<std::vector<std::string>>(v);
 }
 
+// The four masks as {type name: (nlat, nlon) array}.
+py::dict masks_dict(const weather::WeatherMasks& m) {
+  py::dict out;
+  const auto shape = std::vector<py::ssize_t>{m.grid.nlat, m.grid.nlon};
+  for (int t = 0; t < weather::cloud_type_count; ++t) {
+    const auto type = static_cast<weather::CloudType>(t);
+    out[py::str(std::string(weather::name(type)))] = to_array(m[type], shape);
+  }
+  return out;
+}
+
 class Weather {
  public:
   explicit Weather(weather::WeatherGrid w) : w_(std::move(w)) {}
@@ -93,13 +104,7 @@ class Weather {
       py::gil_scoped_release release;
       m = weather::compute_masks(w_, params);
     }
-    py::dict out;
-    const auto shape = std::vector<py::ssize_t>{w_.grid().nlat, w_.grid().nlon};
-    for (int t = 0; t < weather::cloud_type_count; ++t) {
-      const auto type = static_cast<weather::CloudType>(t);
-      out[py::str(std::string(weather::name(type)))] = to_array(m[type], shape);
-    }
-    return out;
+    return masks_dict(m);
   }
   py::array_t<double> latitudes() const {
     std::vector<double> v(static_cast<std::size_t>(w_.grid().nlat));
@@ -573,14 +578,10 @@ py::dict run_masks(const std::optional<std::string>& weather, const std::optiona
     py::gil_scoped_release release;
     res = weather::run_masks(r);
   }
-  py::dict masks, cover;
-  const auto shape = std::vector<py::ssize_t>{res.grid.nlat, res.grid.nlon};
-  for (int t = 0; t < weather::cloud_type_count; ++t) {
-    const auto type = static_cast<weather::CloudType>(t);
-    const py::str name(std::string(weather::name(type)));
-    masks[name] = to_array(res.masks[type], shape);
-    cover[name] = res.cover[static_cast<std::size_t>(t)];
-  }
+  py::dict cover;
+  for (int t = 0; t < weather::cloud_type_count; ++t)
+    cover[py::str(std::string(weather::name(static_cast<weather::CloudType>(t))))] =
+        res.cover[static_cast<std::size_t>(t)];
   py::list agreement;
   for (const auto& a : res.agreement) {
     py::dict d;
@@ -589,7 +590,7 @@ py::dict run_masks(const std::optional<std::string>& weather, const std::optiona
     agreement.append(d);
   }
   py::dict d;
-  d["masks"] = masks, d["cover"] = cover, d["agreement"] = agreement;
+  d["masks"] = masks_dict(res.masks), d["cover"] = cover, d["agreement"] = agreement;
   d["valid_time"] = res.weather.valid_time.iso();
   return d;
 }

@@ -9,7 +9,6 @@
 
 #include "cli_support.hpp"
 #include "command.hpp"
-#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/config.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/lbm/water_model.hpp"
