@@ -44,7 +44,8 @@ void check(const ParticlesRequest& r) {
     require_range((*r.camera)[2], 0, 1e5, "camera", "the camera's altitude [km]");
     require_range((*r.camera)[4], -90, 90, "camera", "the camera's pitch [deg]");
   }
-  if (!r.wrf.empty() && !r.weather.empty()) throw ValueError("give --weather or --wrf, not both", {.key = "wrf"});
+  if (!r.wrf.empty() && !r.weather.empty())
+    throw ValueError("weather files and WRF output both given: give one", {.key = "wrf"});
   if (r.refine < 0) throw ValueError("must be >= 0", {.key = "refine"});
 }
 
