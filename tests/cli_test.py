@@ -171,6 +171,34 @@ class Masks(unittest.TestCase):
             self.assertIn("masks.cirrus.bogus_threshold", r.stderr)
             self.assertFalse(out.exists())
 
+    def test_reads_the_render_configuration(self):
+        # One file configures the model and its masks: `masks --config` takes what `render
+        # --config` takes and uses its mask tables, so both commands see the same masks.
+        import netCDF4
+        import numpy as np
+        with tempfile.TemporaryDirectory() as d:
+            masks_only = Path(d) / "masks.toml"
+            masks_only.write_text("[masks.cirrus]\nband_bottom_m = 7000.0\n")
+            model = Path(d) / "model.toml"
+            model.write_text((SOURCE / "configs/clouds.toml").read_text() + "\n" + masks_only.read_text())
+            cirrus = {}
+            for cfg in (masks_only, model, SOURCE / "configs/clouds.toml"):
+                out = Path(d) / ("out-" + cfg.stem)
+                r = run("masks", "--config", cfg, "--out", out)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                cirrus[cfg.name] = netCDF4.Dataset(out / "masks.nc")["cirrus"][:]
+            default = netCDF4.Dataset(self.out / "masks.nc")["cirrus"][:]
+            self.assertTrue(np.array_equal(cirrus["model.toml"], cirrus["masks.toml"]))
+            self.assertFalse(np.array_equal(cirrus["model.toml"], default))  # the band moved: 3 -> 7 km
+            self.assertTrue(np.array_equal(cirrus["clouds.toml"], default))  # no mask tables: the defaults
+            # The model's keys are still checked.
+            bad = Path(d) / "bad.toml"
+            bad.write_text("[textures]\nsize = 256\nbogus = 1\n")
+            r = run("masks", "--config", bad, "--out", Path(d) / "never")
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("textures.bogus", r.stderr)
+            self.assertFalse((Path(d) / "never").exists())
+
     def test_synthetic_weather(self):
         with tempfile.TemporaryDirectory() as d:
             r = run("--seed", "7", "masks", "--synthetic", "--out", d)

@@ -73,7 +73,8 @@ Command add_masks_command(CLI::App& app, const GlobalOptions& g) {
   auto* masks = app.add_subcommand("masks", "Cloud weather masks (Table 1) as PNGs and CF-NetCDF");
   add_weather_source_options(masks, o->weather);
   masks->add_option("--out", o->out, "Output directory")->capture_default_str();
-  masks->add_option("--config", o->config, "TOML file with [cloud_fraction] and [masks.*] parameters");
+  masks->add_option("--config", o->config,
+                    "model configuration (as render --config): its [cloud_fraction] and [masks.*] tables");
   masks
       ->add_option(
           "--png-width", o->png_width,

@@ -34,14 +34,6 @@ MaskParams::MaskParams() {
   (*this)[CloudType::cirrus] = {3000, 20000, -inf, inf, -inf, -40, TemperatureReference::cloud_top};  // (*) top T
 }
 
-MaskParams MaskParams::from_file(const std::filesystem::path& path) {
-  if (path.empty()) return {};
-  const ParamDict dict = ParamDict::from_file(path);
-  MaskParams p = from(dict);
-  dict.check_unused();
-  return p;
-}
-
 MaskParams MaskParams::from(const ParamDict& dict) {
   MaskParams p;
   const ParamDict cf = dict.table("cloud_fraction");

@@ -16,7 +16,6 @@
 //  3. The classified fractions are combined over the type's altitude band with maximum-random
 //     overlap (contiguous cloudy samples overlap maximally, separated ones randomly), as GFS does.
 #include <array>
-#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
@@ -63,9 +62,6 @@ struct MaskParams {
   MaskParams();
   /// Reads [cloud_fraction], [masks], [masks.<type>] tables; unknown keys are errors (on check_unused).
   static MaskParams from(const ParamDict& dict);
-  /// Reads a configuration file of only these tables (any other key is a ConfigError); the
-  /// defaults when `path` is empty.
-  static MaskParams from_file(const std::filesystem::path& path);
   const CloudTypeMaskParams& operator[](CloudType t) const { return types[static_cast<std::size_t>(t)]; }
   CloudTypeMaskParams& operator[](CloudType t) { return types[static_cast<std::size_t>(t)]; }
 };

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "nephos/clouds/cloud_model.hpp"
 #include "nephos/core/atomic_file.hpp"
 #include "nephos/core/parse.hpp"
 #include "nephos/weather/masks_io.hpp"
@@ -22,7 +23,7 @@ void write_masks(const std::filesystem::path& out, const WeatherMasks& masks, co
 
 MasksResult run_masks(const MasksRequest& r) {
   require_range(r.png_width, min_png_width, max_png_width, "png_width", "the PNG previews' width [pixels]");
-  const MaskParams params = MaskParams::from_file(r.config);
+  const MaskParams params = clouds::read_model_config(r.config).masks;
   const WeatherGrid w = load_weather(r.weather, r.seed);
   MasksResult res;
   res.weather = w.metadata(), res.grid = w.grid();

@@ -16,9 +16,12 @@ namespace nephos::weather {
 inline constexpr int min_png_width = 16, max_png_width = 16384;
 
 struct MasksRequest {
-  WeatherSource weather;         ///< a file (by default the embedded sample), one of its times, or synthetic
-  std::filesystem::path config;  ///< TOML with [cloud_fraction] and [masks.*] tables; empty: the defaults
-  int png_width = 1440;          ///< the PNG previews' width [pixels] (height: half)
+  WeatherSource weather;  ///< a file (by default the embedded sample), one of its times, or synthetic
+  /// A model configuration, as `nephos render --config` reads it (clouds::read_model_config):
+  /// its [cloud_fraction] and [masks.*] tables; its other keys are checked, not used. Empty: the
+  /// defaults.
+  std::filesystem::path config;
+  int png_width = 1440;  ///< the PNG previews' width [pixels] (height: half)
   std::filesystem::path out = "out";
   std::uint64_t seed = 1;  ///< of synthetic weather
 };
