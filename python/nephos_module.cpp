@@ -365,7 +365,6 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
   std::vector<std::filesystem::path> paths;
   {
     py::gil_scoped_release release;  // the arrays are held above
-    std::filesystem::create_directories(dir);
     paths = render::write_abi_l1b(dir, img, view, start, sun_distance_au);
   }
   std::vector<std::string> out;

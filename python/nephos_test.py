@@ -427,6 +427,10 @@ class AbiL1b(unittest.TestCase):
             for bad in (5, {"radiance_lwir": 1}, ds.rename({"x": "col"})):
                 with self.assertRaisesRegex(ValueError, "'dataset'"):
                     nephos.write_abi_l1b(bad, str(Path(d) / "bad"))
+            # A folder that cannot be made is an OSError naming it, as for the command line.
+            (Path(d) / "a_file").write_text("")
+            with self.assertRaisesRegex(OSError, "a_file/l1b: cannot create output directory"):
+                nephos.write_abi_l1b(ds, str(Path(d) / "a_file" / "l1b"))
         self.assertIsInstance(nephos.Scene(nephos.Weather(str(SAMPLE)), texture=8).render(
             sensor="abi:east", abi_step=64, bands=["lwir"], as_dict=True), dict)
 

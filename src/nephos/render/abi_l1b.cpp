@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <omp.h>
 
+#include "nephos/core/atomic_file.hpp"
 #include "nephos/core/error.hpp"
 #include "nephos/earth/earth.hpp"
 #include "nephos/io/netcdf_writer.hpp"
@@ -495,6 +496,7 @@ std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& di
                      {.key = "size"});
   if (sec.nx > 32767 || sec.ny > 32767) throw ValueError("the sector exceeds int16 pixel indices", {.key = "abi_step"});
   if (nb == 0) return {};
+  ensure_directory(dir);
   const SectorCover cover = sector_cover(view.projection, sec);  // which pixels lie on the Earth, and their extent
   std::vector<std::filesystem::path> paths;
   for (const std::string& name : image.bands)
