@@ -58,9 +58,10 @@ struct L1bBands {
 L1bBands l1b_bands(const RenderImage& image);
 
 /// Writes each band of `image` (rendered by Sensor::abi(view) at time `start`, the Sun at
-/// `sun_distance_au`) as an L1b file into `dir` (created if need be); returns their paths. Pixels off the ellipsoid
-/// are _FillValue. Thermal bands' Rad is the radiance their coefficients give nephos's brightness
-/// temperature (so that BT round-trips); reflective bands' Rad is nephos's radiance.
+/// `sun_distance_au`) as an L1b file into `dir` (created if need be); returns their paths.
+/// Pixels off the ellipsoid are _FillValue. Thermal bands' Rad is the radiance their
+/// coefficients give nephos's brightness temperature (so that BT round-trips); reflective bands'
+/// Rad is nephos's radiance.
 std::vector<std::filesystem::path> write_abi_l1b(const std::filesystem::path& dir, const L1bBands& image,
                                                  const FixedGridView& view, const UtcTime& start,
                                                  double sun_distance_au);
