@@ -281,6 +281,29 @@ class Render(unittest.TestCase):
             b = netCDF4.Dataset(Path(d) / "frame_001" / "render.nc")["cloud_top_altitude"][:]
             self.assertFalse(np.array_equal(np.ma.filled(a, -1), np.ma.filled(b, -1)))
 
+    def test_each_frames_time_moves_with_the_wind(self):
+        # A frame shows the scene its advance has carried: by default the weather's valid time
+        # (2011-01-15 12 UTC) plus that advance; --time gives the first frame's, the next frames
+        # follow H hours apart. The Sun and the L1b files' names and times take it.
+        import netCDF4
+        with tempfile.TemporaryDirectory() as d:
+            tiny = ["--texture", "32", "--types", "low_cumulus", "--frames", "2"]
+            r = run("render", "--sensor", "abi:east", "--abi-step", "64", "--bands", "lwir", "--format", "abi-l1b",
+                    *tiny, "--advance-hours", "1.5", "--out", Path(d) / "l1b")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            for frame, start in (("frame_000", "s20110151330000"), ("frame_001", "s20110151500000")):
+                names = [p.name for p in (Path(d) / "l1b" / frame).glob("*.nc")]
+                self.assertEqual(len(names), 1, names)
+                self.assertIn(f"_G16_{start}_", names[0])
+                with netCDF4.Dataset(Path(d) / "l1b" / frame / names[0]) as ds:
+                    self.assertEqual(ds.getncattr("time_coverage_start")[:19], f"2011-01-15T{start[8:10]}:{start[10:12]}:00")
+            r = run("render", "--size", "16x16", "--bands", "vis", *tiny, "--advance-hours", "-2", "--time",
+                    "2011-01-15T06:00:00Z", "--out", Path(d) / "nc")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            for frame, time in (("frame_000", "2011-01-15T06:00:00Z"), ("frame_001", "2011-01-15T04:00:00Z")):
+                with netCDF4.Dataset(Path(d) / "nc" / frame / "render.nc") as ds:
+                    self.assertEqual(ds.getncattr("time"), time)
+
     def test_rays_per_pixel_stratified_or_on_a_grid(self):
         import netCDF4
         import numpy as np

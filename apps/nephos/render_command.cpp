@@ -122,7 +122,9 @@ Command add_render_command(CLI::App& app, const GlobalOptions& g) {
   rend->add_option("--displace-hours", o->displace_hours, "Wind displacement of all fractals [h] (default: per type)");
   rend->add_option("--advance-hours", o->advance_hours, "Propagate the displacement maps by H hours (per frame)");
   rend->add_option("--frames", o->frames, "Number of frames (each advanced by --advance-hours)")->capture_default_str();
-  rend->add_option("--time", o->time, "UTC time for the Sun, ISO 8601 (default: the weather's valid time)");
+  rend->add_option("--time", o->time,
+                   "UTC of the (first) frame, for the Sun and the L1b files, ISO 8601 (default: the weather's valid "
+                   "time plus the wind's advance)");
   rend->add_option("--config", o->config, "TOML with [clouds.*], [textures], [displacement], [masks.*] parameters");
   rend->add_option("--out", o->out, "Output directory")->capture_default_str();
   rend->add_option("--scene", o->scene, "abi sensors: full | conus | meso:LAT,LON (the sector; --size is ignored)")

@@ -1,6 +1,7 @@
 #include "nephos/render/job.hpp"
 
 #include <chrono>
+#include <cmath>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -125,11 +126,16 @@ void RenderScene::advance(double hours, const std::string& key) {
   require_range(hours, -clouds::CloudModelParams::max_displace_hours, clouds::CloudModelParams::max_displace_hours, key,
                 "the advance [h]");
   clouds::advance_scene(scene_, hours, params_);
+  advanced_hours_ += hours;
+}
+
+UtcTime RenderScene::time() const {
+  return weather_.metadata().valid_time.plus_seconds(std::round(advanced_hours_ * 3600.0));
 }
 
 RenderedView RenderScene::render(const ViewRequest& view, double extra_bytes_per_pixel) const {
   auto [sensor, rp] = checked_view(view, seed_, extra_bytes_per_pixel);
-  const UtcTime time = view.time.value_or(weather_.metadata().valid_time);
+  const UtcTime time = view.time.value_or(this->time());
   const earth::SunPosition sun = earth::sun_position(time);
   spdlog::info("sensor: {}", sensor.description);
   spdlog::info("time {}: subsolar point {:.2f}, {:.2f}", time.iso(), sun.subsolar_lat_deg, sun.subsolar_lon_deg);
@@ -178,7 +184,8 @@ void run_render(
     const std::filesystem::path dir =
         request.frames == 1 ? request.out : request.out / fmt::format("frame_{:03d}", frame);
     ensure_directory(dir);
-    for (const ViewRequest& v : views) {
+    for (ViewRequest v : views) {
+      if (v.time) v.time = v.time->plus_seconds(std::round(frame * request.advance_hours * 3600.0));
       const RenderedView view = scene.render(v, writer_bytes);
       if (request.format == "abi-l1b") {
         const auto t0 = std::chrono::steady_clock::now();

@@ -37,13 +37,14 @@ struct ViewRequest {
   std::string sensor = "geo:-75.2";  ///< "geo:LON", "leo:LAT,LON,ALT_KM,FOV_DEG" or a camera TOML file
   int width = 1000, height = 1000;   ///< focal-plane array [pixels]
   std::vector<std::string> bands{"vis", "nir", "lwir"};
-  int steps = 25;                ///< ray-marching steps per shell
-  int samples = 1;               ///< rays per pixel, a square k^2 (1..256)
-  bool sample_grid = false;      ///< sub-pixel rays at the sub-pixels' centres, not stratified
-  bool atmosphere = true;        ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
-  bool shadows = true;           ///< clouds shade the ground and lower clouds from direct sunlight
-  bool filter = true;            ///< fractal detail finer than a pixel filtered (false: point samples, aliased)
-  std::optional<UtcTime> time;   ///< UTC for the Sun; empty: the weather's valid time
+  int steps = 25;            ///< ray-marching steps per shell
+  int samples = 1;           ///< rays per pixel, a square k^2 (1..256)
+  bool sample_grid = false;  ///< sub-pixel rays at the sub-pixels' centres, not stratified
+  bool atmosphere = true;    ///< gases, Rayleigh scattering and the air's emission (false: a vacuum)
+  bool shadows = true;       ///< clouds shade the ground and lower clouds from direct sunlight
+  bool filter = true;        ///< fractal detail finer than a pixel filtered (false: point samples, aliased)
+  /// UTC of the view (the Sun's, and the L1b files'); empty: the scene's (RenderScene::time())
+  std::optional<UtcTime> time;
   std::string scene = "full";    ///< abi sensors: "full", "conus" or "meso:LAT,LON" (width, height: the sector's)
   int abi_step = 1;              ///< abi sensors: the fixed grid coarsened by this factor
   double abi_resolution_km = 0;  ///< abi sensors: 0.5, 1 or 2; 0: the coarsest native one of the bands
@@ -68,8 +69,11 @@ class RenderScene {
   /// Masks, textures, winds and displacement maps of `weather` for `request`. Errors name
   /// "texture", "displace_hours" or the configuration's keys.
   RenderScene(weather::WeatherGrid weather, const SceneRequest& request);
-  /// Moves the clouds with the wind by `hours` (|hours| <= 240; ValueError naming `key`).
+  /// Moves the clouds with the wind by `hours` (|hours| <= 240; ValueError naming `key`), and
+  /// the scene's time with them.
   void advance(double hours, const std::string& key = "hours");
+  /// The time the scene shows: the weather's valid time plus the hours the wind has carried it.
+  UtcTime time() const;
   /// Renders one view. The renderer's memory plus `extra_bytes_per_pixel` (what the caller
   /// keeps of the image besides) is checked against the machine's first (ResourceError naming
   /// "size").
@@ -87,6 +91,7 @@ class RenderScene {
   clouds::CloudScene scene_;
   std::vector<weather::CloudType> types_;
   std::uint64_t seed_;
+  double advanced_hours_ = 0;  // the sum of advance()'s hours
 };
 
 /// The renderer's parameters of a view: bands, steps, rays per pixel; ValueError naming the field.
@@ -94,7 +99,8 @@ RenderParams render_params(const ViewRequest& view, std::uint64_t seed);
 
 /// `nephos render`: a scene from a weather source, `frames` frames each `advance_hours` of wind
 /// displacement after the last, written as render.nc, render.exr and a PNG per band into
-/// `out` (or out/frame_NNN with several frames).
+/// `out` (or out/frame_NNN with several frames). Each frame's time is the scene's, or, where
+/// the view gives one, that time for the first frame and `advance_hours` more for each next.
 struct RenderRequest {
   weather::WeatherSource weather;
   SceneRequest scene;
