@@ -295,8 +295,9 @@ class Render(unittest.TestCase):
                 names = [p.name for p in (Path(d) / "l1b" / frame).glob("*.nc")]
                 self.assertEqual(len(names), 1, names)
                 self.assertIn(f"_G16_{start}_", names[0])
+                hh_mm = f"{start[8:10]}:{start[10:12]}"
                 with netCDF4.Dataset(Path(d) / "l1b" / frame / names[0]) as ds:
-                    self.assertEqual(ds.getncattr("time_coverage_start")[:19], f"2011-01-15T{start[8:10]}:{start[10:12]}:00")
+                    self.assertEqual(ds.getncattr("time_coverage_start")[:19], f"2011-01-15T{hh_mm}:00")
             r = run("render", "--size", "16x16", "--bands", "vis", *tiny, "--advance-hours", "-2", "--time",
                     "2011-01-15T06:00:00Z", "--out", Path(d) / "nc")
             self.assertEqual(r.returncode, 0, r.stderr)
