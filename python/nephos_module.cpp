@@ -214,6 +214,7 @@ class Scene {
     for (auto t : scene_->types()) names.emplace_back(weather::name(t));
     return names;
   }
+  std::string time() const { return scene_->time().iso(); }
 
  private:
   static std::unique_ptr<render::RenderScene> make(const Weather& w, const std::optional<NameList>& types, int texture,
@@ -754,6 +755,9 @@ void def_weather_and_scene(py::module_& m) {
            "texture edge in voxels (0: the configuration's, 256 by default); config: a TOML file as for `nephos "
            "render --config`; displace_hours: the wind displacement of every fractal [h].")
       .def_property_readonly("types", &Scene::types)
+      .def_property_readonly("time", &Scene::time,
+                             "The time the scene shows (ISO 8601 UTC): the weather's valid time plus the hours "
+                             "advance() has carried it; a render without a time takes it.")
       .def("advance", &Scene::advance, py::arg("hours"),
            "Moves the clouds with the wind by `hours` (frame-to-frame propagation).")
       .def("render", &Scene::render, py::arg("sensor") = "geo:-75.2", py::arg("size") = std::make_pair(1000, 1000),

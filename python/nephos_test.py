@@ -140,6 +140,7 @@ class Render(unittest.TestCase):
                 self.assertTrue(np.array_equal(img[name], ref[name][:], equal_nan=name != "cloud_type"), name)
         self.assertGreater(np.count_nonzero(img["cloud_type"] >= 0), 1000)  # the view holds clouds (3280 of 7680)
         self.assertEqual(img["time"], "2011-01-15T15:00:00Z")  # the valid time plus the wind's 3 h
+        self.assertEqual(scene.time, img["time"])
         self.assertEqual(scene.render(**args, time="2011-01-15T06:00:00Z")["time"], "2011-01-15T06:00:00Z")
         self.assertEqual(sorted(img["seconds_per_type"]), ["cirrus", "low_stratus"])
         self.assertEqual(list(img["seconds_per_stage"]),
