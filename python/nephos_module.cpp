@@ -73,6 +73,13 @@ py::array_t<T> to_array(std::vector<T>&& values, std::vector<py::ssize_t> shape)
   return py::array_t<T>(shape, data, owner);
 }
 
+// f() with the GIL released, for long work that touches no Python object; its result.
+template <class F>
+auto without_gil(F&& f) {
+  py::gil_scoped_release release;
+  return f();
+}
+
 // Names from a keyword argument: a list, or one string, comma-separated as on the command line
 // ("vis,lwir", "all").
 using NameList = std::variant<std::vector<std::string>, std::string>;
@@ -99,12 +106,7 @@ class Weather {
 
   py::dict masks(const std::optional<std::string>& config) const {
     const weather::MaskParams params = clouds::read_model_config(config.value_or("")).masks;
-    weather::WeatherMasks m;
-    {
-      py::gil_scoped_release release;
-      m = weather::compute_masks(w_, params);
-    }
-    return masks_dict(m);
+    return masks_dict(without_gil([&] { return weather::compute_masks(w_, params); }));
   }
   py::array_t<double> latitudes() const {
     std::vector<double> v(static_cast<std::size_t>(w_.grid().nlat));
@@ -200,11 +202,7 @@ class Scene {
     if (time) view.time = parse_time(*time, "time");
     require_image_size(view.width, view.height, "size");
     // The image's fields become the arrays handed to Python (no copy).
-    render::RenderedView r;
-    {
-      py::gil_scoped_release release;
-      r = scene_->render(view);
-    }
+    render::RenderedView r = without_gil([&] { return scene_->render(view); });
     if (r.sensor.fixed_grid && !as_dict) return image_dataset(r, view);
     return image_dict(r);
   }
@@ -363,11 +361,9 @@ std::vector<std::string> write_abi_l1b(const py::object& dataset, const std::str
   if (img.bands.empty()) throw ValueError("no radiance_<band> variable", {.key = "dataset"});
   const UtcTime start = UtcTime::parse(attrs["time"].cast<std::string>());
   const double sun_distance_au = attrs["sun_distance_au"].cast<double>();
-  std::vector<std::filesystem::path> paths;
-  {
-    py::gil_scoped_release release;  // the arrays are held above
-    paths = render::write_abi_l1b(dir, img, view, start, sun_distance_au);
-  }
+  // The arrays are held above.
+  const std::vector<std::filesystem::path> paths =
+      without_gil([&] { return render::write_abi_l1b(dir, img, view, start, sun_distance_au); });
   std::vector<std::string> out;
   for (const auto& p : paths) out.push_back(p.string());
   return out;
@@ -541,12 +537,10 @@ py::dict run_lbm(std::tuple<int, int, int> grid, std::optional<int> silos, long 
   if (storage) r.storage = lbm::parse_storage(*storage);
   r.out = out;
   r.seed = seed;
-  lbm::LbmResult res;
-  {
-    py::gil_scoped_release release;
+  lbm::LbmResult res = without_gil([&] {
     lbm::SingleProcess one;
-    res = lbm::run_lbm(r, one);
-  }
+    return lbm::run_lbm(r, one);
+  });
   py::dict d;
   d["vapour"] = field_array(res.vapour, res.grid);
   d["temperature"] = field_array(res.temperature, res.grid);
@@ -573,11 +567,7 @@ py::dict run_masks(const std::optional<std::string>& weather, const std::optiona
   r.png_width = png_width;
   r.out = out;
   r.seed = seed;
-  weather::MasksResult res;
-  {
-    py::gil_scoped_release release;
-    res = weather::run_masks(r);
-  }
+  weather::MasksResult res = without_gil([&] { return weather::run_masks(r); });
   py::dict cover;
   for (int t = 0; t < weather::cloud_type_count; ++t)
     cover[py::str(std::string(weather::name(static_cast<weather::CloudType>(t))))] =
@@ -620,11 +610,7 @@ py::dict run_particles(const std::vector<std::string>& weather, const std::optio
   r.transparent = realtime::transparent_background(background);
   r.out = out;
   r.seed = seed;
-  particles::ParticlesResult res;
-  {
-    py::gil_scoped_release release;
-    res = particles::run_particles(r);
-  }
+  particles::ParticlesResult res = without_gil([&] { return particles::run_particles(r); });
   py::list drawn;
   for (const auto& f : res.frames) {
     py::dict d;
@@ -689,11 +675,7 @@ py::array_t<std::uint8_t> raycast(const py::array_t<float, py::array::c_style | 
   sun_check.set_sun(sun.first, sun.second, "sun");
   std::tie(rp.sun_azimuth_deg, rp.sun_elevation_deg) = sun;
   const std::vector<float> d = values_of(density, "density"), l = values_of(light, "light");
-  std::vector<std::uint8_t> rgb;
-  {
-    py::gil_scoped_release release;
-    rgb = lbm::raycast(g, d, l, rp);
-  }
+  const std::vector<std::uint8_t> rgb = without_gil([&] { return lbm::raycast(g, d, l, rp); });
   return to_array(rgb, {height, width, 3});
 }
 
